@@ -1,0 +1,11 @@
+# Warnings and optimisation flags shared by every rbdgrad target (through rbdgrad_options).
+add_library(rbdgrad_options INTERFACE)
+target_compile_options(rbdgrad_options INTERFACE
+  $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor>)
+if(CMAKE_BUILD_TYPE STREQUAL "Release")
+  # the dynamics kernels are small fixed-size loops: -O3 unrolls and vectorises them
+  target_compile_options(rbdgrad_options INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-O3>)
+endif()
+if(RBDGRAD_NATIVE)
+  target_compile_options(rbdgrad_options INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-march=native>)
+endif()

@@ -1,0 +1,18 @@
+// Analytical derivatives of inverse dynamics (paper 000, Algorithm 2), in world-frame O(n d) form.
+#pragma once
+
+#include "rbdgrad/algorithm/rnea.hpp"
+
+namespace rbdgrad {
+
+/// d tau / d q and d tau / d qd of tau = ID(q, qd, qdd, fext). External forces are held fixed in
+/// their link frames when q varies.
+/// \param[in] q, qd, qdd (dim model.nv); fext as in rnea.
+/// \param[out] ws.tau (dim nv), ws.dtau_dq, ws.dtau_dqd (nv x nv: row i = tau_i, column j = q_j),
+///             and ws.M, which the same passes produce.
+template <class S>
+Status rnea_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
+                        const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd,
+                        const S* fext = nullptr);
+
+}  // namespace rbdgrad

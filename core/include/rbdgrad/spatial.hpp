@@ -1,0 +1,70 @@
+// Spatial vector algebra (Featherstone), written out component-wise so nothing builds 6x6 cross
+// operators. Motion vectors are [angular; linear], force vectors [moment; force]; all the core
+// algorithms express them in the world frame, at the world origin.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products
+#include <type_traits>
+
+namespace rbdgrad {
+
+template <class S> using Vec3 = Eigen::Matrix<S, 3, 1>;
+template <class S> using Vec6 = Eigen::Matrix<S, 6, 1>;
+template <class S> using Mat3 = Eigen::Matrix<S, 3, 3>;
+template <class S> using Mat6 = Eigen::Matrix<S, 6, 6>;
+template <class S> using VectorX = Eigen::Matrix<S, Eigen::Dynamic, 1>;
+template <class S> using MatrixX = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
+// Vector argument of an algorithm: any contiguous vector (VectorX, Map) without a copy. Not used to
+// deduce S, which comes from the model.
+template <class S> using ConstVectorRef = std::type_identity_t<Eigen::Ref<const VectorX<S>>>;
+
+// m1 x m2 (motion cross motion)
+template <class S>
+inline Vec6<S> cross_motion(const Vec6<S>& m1, const Vec6<S>& m2) {
+  const auto w1 = m1.template head<3>(), v1 = m1.template tail<3>();
+  const auto w2 = m2.template head<3>(), v2 = m2.template tail<3>();
+  Vec6<S> out;
+  out.template head<3>() = w1.cross(w2);
+  out.template tail<3>() = w1.cross(v2) + v1.cross(w2);
+  return out;
+}
+
+// m x* f (motion cross force)
+template <class S>
+inline Vec6<S> cross_force(const Vec6<S>& m, const Vec6<S>& f) {
+  const auto w = m.template head<3>(), v = m.template tail<3>();
+  const auto n = f.template head<3>(), fl = f.template tail<3>();
+  Vec6<S> out;
+  out.template head<3>() = w.cross(n) + v.cross(fl);
+  out.template tail<3>() = w.cross(fl);
+  return out;
+}
+
+// power of a force along a motion: m . f
+template <class S>
+inline S dot(const Vec6<S>& m, const Vec6<S>& f) {
+  return m.dot(f);
+}
+
+template <class S>
+inline Mat3<S> skew(const Vec3<S>& v) {
+  Mat3<S> out;
+  out << S(0), -v.z(), v.y(), v.z(), S(0), -v.x(), -v.y(), v.x(), S(0);
+  return out;
+}
+
+// Spatial inertia at the world origin of a body with mass m, centre of mass c and rotational
+// inertia Ic about c, all in world axes: [[Ic - m cx cx, m cx], [-m cx, m 1]].
+template <class S>
+inline void spatial_inertia(S m, const Vec3<S>& c, const Mat3<S>& Ic, Mat6<S>& out) {
+  const Mat3<S> cx = skew(c);
+  const Vec3<S> mc = m * c;
+  const Mat3<S> mcx = skew(mc);
+  out.template topLeftCorner<3, 3>() = Ic - mcx * cx;
+  out.template topRightCorner<3, 3>() = mcx;
+  out.template bottomLeftCorner<3, 3>() = -mcx;
+  out.template bottomRightCorner<3, 3>() = Mat3<S>::Identity() * m;
+}
+
+}  // namespace rbdgrad
