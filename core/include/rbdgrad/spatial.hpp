@@ -7,6 +7,14 @@
 #include <Eigen/Geometry>  // cross products
 #include <type_traits>
 
+// The small spatial helpers must inline into the recursions; GCC's heuristics otherwise keep some
+// of them out of line in the larger passes.
+#if defined(__GNUC__)
+#define RBDGRAD_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define RBDGRAD_ALWAYS_INLINE inline
+#endif
+
 namespace rbdgrad {
 
 template <class S> using Vec3 = Eigen::Matrix<S, 3, 1>;
@@ -19,31 +27,47 @@ template <class S> using MatrixX = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynam
 // deduce S, which comes from the model.
 template <class S> using ConstVectorRef = std::type_identity_t<Eigen::Ref<const VectorX<S>>>;
 
-// m1 x m2 (motion cross motion)
+// a x b for 3-vectors, written out so it inlines into the recursions (Eigen's cross is an
+// out-of-line call on blocks)
+template <class S, class A, class B, class Out>
+RBDGRAD_ALWAYS_INLINE void cross3(const A& a, const B& b, Out&& out, bool add = false) {
+  const S x = a(1) * b(2) - a(2) * b(1);
+  const S y = a(2) * b(0) - a(0) * b(2);
+  const S z = a(0) * b(1) - a(1) * b(0);
+  if (add) {
+    out(0) += x;
+    out(1) += y;
+    out(2) += z;
+  } else {
+    out(0) = x;
+    out(1) = y;
+    out(2) = z;
+  }
+}
+
+// m1 x m2 (motion cross motion): [w1 x w2; w1 x v2 + v1 x w2]
 template <class S>
-inline Vec6<S> cross_motion(const Vec6<S>& m1, const Vec6<S>& m2) {
-  const auto w1 = m1.template head<3>(), v1 = m1.template tail<3>();
-  const auto w2 = m2.template head<3>(), v2 = m2.template tail<3>();
+RBDGRAD_ALWAYS_INLINE Vec6<S> cross_motion(const Vec6<S>& m1, const Vec6<S>& m2) {
   Vec6<S> out;
-  out.template head<3>() = w1.cross(w2);
-  out.template tail<3>() = w1.cross(v2) + v1.cross(w2);
+  cross3<S>(m1.template head<3>(), m2.template head<3>(), out.template head<3>());
+  cross3<S>(m1.template head<3>(), m2.template tail<3>(), out.template tail<3>());
+  cross3<S>(m1.template tail<3>(), m2.template head<3>(), out.template tail<3>(), true);
   return out;
 }
 
-// m x* f (motion cross force)
+// m x* f (motion cross force): [w x n + v x f; w x f]
 template <class S>
-inline Vec6<S> cross_force(const Vec6<S>& m, const Vec6<S>& f) {
-  const auto w = m.template head<3>(), v = m.template tail<3>();
-  const auto n = f.template head<3>(), fl = f.template tail<3>();
+RBDGRAD_ALWAYS_INLINE Vec6<S> cross_force(const Vec6<S>& m, const Vec6<S>& f) {
   Vec6<S> out;
-  out.template head<3>() = w.cross(n) + v.cross(fl);
-  out.template tail<3>() = w.cross(fl);
+  cross3<S>(m.template head<3>(), f.template head<3>(), out.template head<3>());
+  cross3<S>(m.template tail<3>(), f.template tail<3>(), out.template head<3>(), true);
+  cross3<S>(m.template head<3>(), f.template tail<3>(), out.template tail<3>());
   return out;
 }
 
 // power of a force along a motion: m . f
 template <class S>
-inline S dot(const Vec6<S>& m, const Vec6<S>& f) {
+RBDGRAD_ALWAYS_INLINE S dot(const Vec6<S>& m, const Vec6<S>& f) {
   return m.dot(f);
 }
 

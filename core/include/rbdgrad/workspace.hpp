@@ -17,7 +17,7 @@ struct WorkspaceTpl {
 
   // outputs
   VectorX<S> tau;        // (nv) rnea, rnea_derivatives, fd_derivatives (= c' = RNEA(q, qd, qdd))
-  VectorX<S> bias;       // (nv) c = RNEA(q, qd, 0): forward_dynamics, fd_derivatives with tau input
+  VectorX<S> bias;       // (nv) c = RNEA(q, qd, 0): fd_derivatives with tau input
   VectorX<S> qdd;        // (nv) forward_dynamics, fd_derivatives
   MatrixX<S> M;          // (nv x nv) crba and everything that calls it; full symmetric
   MatrixX<S> Minv;       // (nv x nv) minverse, fd_derivatives; full symmetric
@@ -49,6 +49,14 @@ struct WorkspaceTpl {
   std::vector<Vec6<S>> beta;   // a_parent x S + v_parent x alpha: same for acceleration
   std::vector<Vec6<S>> u;      // Ic S
   std::vector<Vec6<S>> w;      // Bc^T S
+
+  // articulated-body recursion (forward_dynamics, fd_derivatives with tau input)
+  std::vector<Mat6<S>> IA;     // articulated inertia of the subtree
+  std::vector<Vec6<S>> pA;     // articulated bias force of the subtree
+  std::vector<Vec6<S>> U;      // IA S
+  std::vector<Vec6<S>> aba_a;  // body acceleration
+  VectorX<S> aba_d;            // (nv) S^T IA S
+  VectorX<S> aba_u;            // (nv) tau - S^T pA
 };
 
 using Workspace = WorkspaceTpl<double>;

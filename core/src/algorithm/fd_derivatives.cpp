@@ -9,7 +9,8 @@ namespace rbdgrad {
 template <class S>
 Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
                       const ConstVectorRef<S>& qd, const ConstVectorRef<S>& input,
-                      InputKind kind, const S* fext, const MatrixX<S>* supplied_minv) {
+                      InputKind kind, std::type_identity_t<const S*> fext,
+                      std::type_identity_t<const MatrixX<S>*> supplied_minv) {
   using detail::Level;
   detail::NumericGuard<S> guard("fd_derivatives");
   const bool tau_input = kind == InputKind::kTau;
@@ -27,9 +28,8 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
   }
   const MatrixX<S>& Minv = supplied_minv ? *supplied_minv : ws.Minv;
   if (tau_input) {
-    ws.qdd = input - ws.bias;
-    if (factored) solve_with_factors(model, ws, ws.qdd);
-    else ws.qdd = (Minv * ws.qdd).eval();
+    // qdd by the articulated-body recursion on the velocities already computed (accurate in float)
+    detail::articulated_body_pass(model, ws, qd.data(), input.data(), fext, ws.qdd.data());
     ws.tau = input;
     // step 2: the derivative terms that depend on qdd
     detail::add_acceleration_pass(model, ws, ws.qdd.data());
@@ -38,8 +38,8 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
     ws.qdd = input;
   }
   // step 3: dqdd/du = -M^-1 dc'/du
-  ws.dqdd_dq.noalias() = -Minv * ws.dtau_dq;
-  ws.dqdd_dqd.noalias() = -Minv * ws.dtau_dqd;
+  multiply_by_minus_minv(model, Minv, ws.dtau_dq, ws.dqdd_dq);
+  multiply_by_minus_minv(model, Minv, ws.dtau_dqd, ws.dqdd_dqd);
   if (factored) return guard.finish(ws.qdd, ws.Minv, ws.dqdd_dq, ws.dqdd_dqd);
   return guard.finish(ws.qdd, ws.dqdd_dq, ws.dqdd_dqd);
 }
@@ -47,7 +47,8 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
 #define RBDGRAD_INSTANTIATE(S)                                                                           \
   template Status fd_derivatives<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&, \
                                     const ConstVectorRef<S>&, const ConstVectorRef<S>&, \
-                                    InputKind, const S*, const MatrixX<S>*);
+                                    InputKind, std::type_identity_t<const S*>, \
+                                    std::type_identity_t<const MatrixX<S>*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

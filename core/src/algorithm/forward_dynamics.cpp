@@ -9,22 +9,18 @@ namespace rbdgrad {
 template <class S>
 Status forward_dynamics(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
                         const ConstVectorRef<S>& qd, const ConstVectorRef<S>& tau,
-                        const S* fext) {
+                        std::type_identity_t<const S*> fext) {
   detail::NumericGuard<S> guard("forward_dynamics");
-  // c = RNEA(q, qd, 0) and M in one pair of passes
+  // forward pass: velocities and bias terms; then the articulated-body recursion
   detail::forward_pass<S, detail::Level::kDynamics>(model, ws, q.data(), qd.data(), nullptr, fext);
-  detail::backward_pass<S, detail::Level::kDynamics>(model, ws, &ws.bias, /*with_mass=*/true, /*with_dq=*/false);
-  if (Status s = factorize_mass_matrix(model, ws); !s) return s;
-  // qdd = M^-1 (tau - c) through the sparse factors
-  ws.qdd = tau - ws.bias;
-  solve_with_factors(model, ws, ws.qdd);
+  detail::articulated_body_pass(model, ws, qd.data(), tau.data(), fext, ws.qdd.data());
   return guard.finish(ws.qdd);
 }
 
 #define RBDGRAD_INSTANTIATE(S)                                                                           \
   template Status forward_dynamics<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&, \
                                       const ConstVectorRef<S>&, const ConstVectorRef<S>&, \
-                                      const S*);
+                                      std::type_identity_t<const S*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

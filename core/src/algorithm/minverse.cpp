@@ -45,12 +45,38 @@ void inverse_from_factors(const ModelTpl<S>& model, WorkspaceTpl<S>& ws) {
       Linv(a, b) = s;
     }
   }
-  // M^-1 = L^-1 D^-1 L^-T: joint k adds a rank-one term on its subtree block (a contiguous range)
-  ws.Minv.setZero();
+  // M^-1 = L^-1 D^-1 L^-T: joint k adds a rank-one term on its subtree block (a contiguous
+  // range); lower triangle first, then mirrored
+  MatrixX<S>& Minv = ws.Minv;
+  Minv.setZero();
   for (int k = 0; k < n; ++k) {
-    const int size = model.subtree_end[k] - k;
-    const auto col = Linv.col(k).segment(k, size);
-    ws.Minv.block(k, k, size, size).noalias() += (ws.Dinv(k) * col) * col.transpose();
+    const int end = model.subtree_end[k];
+    for (int b = k; b < end; ++b) {
+      const S lb = Linv(b, k) * ws.Dinv(k);
+      for (int a = b; a < end; ++a) Minv(a, b) += Linv(a, k) * lb;
+    }
+  }
+  for (int b = 0; b < n; ++b)
+    for (int a = b + 1; a < n; ++a) Minv(b, a) = Minv(a, b);
+}
+
+template <class S>
+void multiply_by_minus_minv(const ModelTpl<S>& model, const MatrixX<S>& Minv, const MatrixX<S>& dtau,
+                            MatrixX<S>& out) {
+  // column j of d tau/d u is nonzero only on the ancestors of j and the subtree of j; plain loops
+  // over contiguous columns (Eigen's per-call overhead dominates at these sizes)
+  const int n = model.nv;
+  for (int j = 0; j < n; ++j) {
+    S* col = out.data() + static_cast<std::ptrdiff_t>(j) * n;
+    const S* d = dtau.data() + static_cast<std::ptrdiff_t>(j) * n;
+    for (int a = 0; a < n; ++a) col[a] = S(0);
+    auto axpy = [&](int r) {
+      const S c = d[r];
+      const S* m = Minv.data() + static_cast<std::ptrdiff_t>(r) * n;
+      for (int a = 0; a < n; ++a) col[a] -= m[a] * c;
+    };
+    for (int r = j; r < model.subtree_end[j]; ++r) axpy(r);
+    for (int r = model.parent[j]; r >= 0; r = model.parent[r]) axpy(r);
   }
 }
 
@@ -79,6 +105,7 @@ Status minverse(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVector
 #define RBDGRAD_INSTANTIATE(S)                                                                            \
   template Status factorize_mass_matrix<S>(const ModelTpl<S>&, WorkspaceTpl<S>&);                          \
   template void inverse_from_factors<S>(const ModelTpl<S>&, WorkspaceTpl<S>&);                             \
+  template void multiply_by_minus_minv<S>(const ModelTpl<S>&, const MatrixX<S>&, const MatrixX<S>&, MatrixX<S>&); \
   template void solve_with_factors<S>(const ModelTpl<S>&, const WorkspaceTpl<S>&, VectorX<S>&);            \
   template Status minverse<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)

@@ -8,7 +8,7 @@ namespace rbdgrad {
 
 template <class S>
 Status rnea(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
-            const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd, const S* fext) {
+            const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd, std::type_identity_t<const S*> fext) {
   detail::NumericGuard<S> guard("rnea");
   // forward pass: velocities, accelerations, body forces; backward pass: subtree forces, tau = S . f
   detail::forward_pass<S, detail::Level::kDynamics>(model, ws, q.data(), qd.data(), qdd.data(), fext);
@@ -18,7 +18,7 @@ Status rnea(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<
 
 #define RBDGRAD_INSTANTIATE(S)                                                                            \
   template Status rnea<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&,        \
-                          const ConstVectorRef<S>&, const ConstVectorRef<S>&, const S*);
+                          const ConstVectorRef<S>&, const ConstVectorRef<S>&, std::type_identity_t<const S*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

@@ -9,7 +9,7 @@ namespace rbdgrad {
 template <class S>
 Status rnea_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
                         const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd,
-                        const S* fext) {
+                        std::type_identity_t<const S*> fext) {
   detail::NumericGuard<S> guard("rnea_derivatives");
   // forward pass: motion, forces, alpha, beta, B; backward pass: composites, tau, M and both derivatives
   detail::forward_pass<S, detail::Level::kDerivatives>(model, ws, q.data(), qd.data(), qdd.data(), fext);
@@ -20,7 +20,7 @@ Status rnea_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
 #define RBDGRAD_INSTANTIATE(S)                                                                           \
   template Status rnea_derivatives<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&, \
                                       const ConstVectorRef<S>&, const ConstVectorRef<S>&, \
-                                      const S*);
+                                      std::type_identity_t<const S*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

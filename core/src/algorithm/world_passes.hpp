@@ -55,7 +55,7 @@ inline void place_body(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, int i, const S
   const Vec3<S> z = ws.R[i].col(2);
   if (m.type[i] == JointType::kRevolute) {
     ws.axis[i].template head<3>() = z;
-    ws.axis[i].template tail<3>() = ws.p[i].cross(z);
+    cross3<S>(ws.p[i], z, ws.axis[i].template tail<3>());
   } else {
     ws.axis[i].template head<3>().setZero();
     ws.axis[i].template tail<3>() = z;
@@ -75,7 +75,8 @@ inline Vec6<S> world_force(const ModelTpl<S>& m, const WorkspaceTpl<S>& ws, int 
   const Eigen::Map<const Vec3<S>> n(fext_link), fl(fext_link + 3);
   Vec6<S> out;
   out.template tail<3>() = R * fl;
-  out.template head<3>() = R * n + ws.p[i].cross(out.template tail<3>());
+  out.template head<3>() = R * n;
+  cross3<S>(ws.p[i], out.template tail<3>(), out.template head<3>(), true);
   return out;
 }
 
@@ -101,12 +102,12 @@ void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S
       ws.v[i] = v_par + Si * qd[i];
       ws.a[i] = a_par + alpha * qd[i];
       if (qdd) ws.a[i] += Si * qdd[i];
+      ws.alpha[i] = alpha;
       ws.h[i].noalias() = ws.I[i] * ws.v[i];
       ws.f[i].noalias() = ws.I[i] * ws.a[i];
       ws.f[i] += cross_force<S>(ws.v[i], ws.h[i]);
       if (fext) ws.f[i] -= world_force(m, ws, i, fext + 6 * i);
       if constexpr (kLevel == Level::kDerivatives) {
-        ws.alpha[i] = alpha;
         ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, alpha);
         // B = v x* I - I v x + h-bar with (v x* I)^T = -I v x
         Mat6<S> C;
@@ -211,6 +212,50 @@ void derivative_dq_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws) {
     for (int j = par; j >= 0; j = m.parent[j])
       ws.dtau_dq(i, j) = dot<S>(ws.u[i], ws.beta[j]) + dot<S>(ws.w[i], ws.alpha[j]);
     if (par >= 0) ws.f_qdd[par] += ws.f_qdd[i];
+  }
+}
+
+// Articulated-body algorithm (RBDA table 7.1) in world coordinates, after forward_pass at
+// kDynamics or above (ws.v, ws.h = I v, ws.alpha set). Writes qdd.
+// Used for forward dynamics because it is markedly more accurate in float than M^-1 (tau - c).
+template <class S>
+void articulated_body_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qd, const S* tau, const S* fext,
+                           S* qdd) {
+  const int n = m.nv;
+  // backward pass: articulated inertias and bias forces, children folded into parents
+  for (int i = 0; i < n; ++i) {
+    ws.IA[i] = ws.I[i];
+    ws.pA[i] = cross_force<S>(ws.v[i], ws.h[i]);
+    if (fext) ws.pA[i] -= world_force(m, ws, i, fext + 6 * i);
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    const Vec6<S>& Si = ws.axis[i];
+    ws.U[i].noalias() = ws.IA[i] * Si;
+    ws.aba_d(i) = dot<S>(Si, ws.U[i]);
+    ws.aba_u(i) = tau[i] - dot<S>(Si, ws.pA[i]);
+    const int par = m.parent[i];
+    if (par < 0) continue;
+    // velocity-product acceleration of joint i: (v_parent x S) qd_i
+    const Vec6<S> c = ws.alpha[i] * qd[i];
+    const S dinv = S(1) / ws.aba_d(i);
+    const Vec6<S> Ud = ws.U[i] * dinv;
+    Mat6<S> Ia = ws.IA[i];
+    Ia.noalias() -= Ud * ws.U[i].transpose();
+    Vec6<S> pa = ws.pA[i];
+    pa.noalias() += Ia * c;
+    pa += Ud * ws.aba_u(i);
+    ws.IA[par] += Ia;
+    ws.pA[par] += pa;
+  }
+  // forward pass: accelerations from the root down
+  Vec6<S> a_gravity = Vec6<S>::Zero();
+  a_gravity.template tail<3>() = -m.gravity;
+  for (int i = 0; i < n; ++i) {
+    const int par = m.parent[i];
+    Vec6<S> a = (par < 0 ? a_gravity : ws.aba_a[par]) + ws.alpha[i] * qd[i];
+    qdd[i] = (ws.aba_u(i) - dot<S>(ws.U[i], a)) / ws.aba_d(i);
+    a += ws.axis[i] * qdd[i];
+    ws.aba_a[i] = a;
   }
 }
 

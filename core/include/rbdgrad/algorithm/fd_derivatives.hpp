@@ -21,6 +21,6 @@ enum class InputKind : unsigned char {
 template <class S>
 Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
                       const ConstVectorRef<S>& qd, const ConstVectorRef<S>& input,
-                      InputKind kind, const S* fext = nullptr, const MatrixX<S>* supplied_minv = nullptr);
+                      InputKind kind, std::type_identity_t<const S*> fext = nullptr, std::type_identity_t<const MatrixX<S>*> supplied_minv = nullptr);
 
 }  // namespace rbdgrad

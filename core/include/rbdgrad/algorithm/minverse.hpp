@@ -16,6 +16,12 @@ Status factorize_mass_matrix(const ModelTpl<S>& model, WorkspaceTpl<S>& ws);
 template <class S>
 void inverse_from_factors(const ModelTpl<S>& model, WorkspaceTpl<S>& ws);
 
+/// out = -Minv * dtau for a derivative of inverse dynamics (nv x nv), skipping the entries that the
+/// tree makes zero: column j of dtau is nonzero only on the ancestors and the subtree of joint j.
+template <class S>
+void multiply_by_minus_minv(const ModelTpl<S>& model, const MatrixX<S>& Minv, const MatrixX<S>& dtau,
+                            MatrixX<S>& out);
+
 /// Solves M x = b in place with the factors of factorize_mass_matrix, O(n d).
 template <class S>
 void solve_with_factors(const ModelTpl<S>& model, const WorkspaceTpl<S>& ws, VectorX<S>& b);

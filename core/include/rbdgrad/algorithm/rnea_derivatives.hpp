@@ -13,6 +13,6 @@ namespace rbdgrad {
 template <class S>
 Status rnea_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
                         const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd,
-                        const S* fext = nullptr);
+                        std::type_identity_t<const S*> fext = nullptr);
 
 }  // namespace rbdgrad
