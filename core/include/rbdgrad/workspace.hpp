@@ -17,7 +17,6 @@ struct WorkspaceTpl {
 
   // outputs
   VectorX<S> tau;        // (nv) rnea, rnea_derivatives, fd_derivatives (= c' = RNEA(q, qd, qdd))
-  VectorX<S> bias;       // (nv) c = RNEA(q, qd, 0): fd_derivatives with tau input
   VectorX<S> qdd;        // (nv) forward_dynamics, fd_derivatives
   MatrixX<S> M;          // (nv x nv) crba and everything that calls it; full symmetric
   MatrixX<S> Minv;       // (nv x nv) minverse, fd_derivatives; full symmetric
@@ -43,7 +42,6 @@ struct WorkspaceTpl {
   std::vector<Mat6<S>> Ic;     // composite inertia of the subtree
   std::vector<Mat6<S>> Bc;     // composite d(force)/d(velocity-like term) operator of the subtree
   std::vector<Vec6<S>> h;      // body momentum I v
-  std::vector<Vec6<S>> f_qdd;  // I a_qdd, then summed over the subtree (fd_derivatives with tau input)
   std::vector<Vec6<S>> f;      // body force I a + v x* I v - fext, then subtree force after the backward pass
   std::vector<Vec6<S>> alpha;  // v_parent x S: velocity change per unit of q_i not due to rigid motion
   std::vector<Vec6<S>> beta;   // a_parent x S + v_parent x alpha: same for acceleration

@@ -14,12 +14,18 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
   using detail::Level;
   detail::NumericGuard<S> guard("fd_derivatives");
   const bool tau_input = kind == InputKind::kTau;
-  // step 1 (Algorithm 3): RNEA quantities v', a', f'. With tau as input, qdd is not known yet: run
-  // with qdd = 0, which gives c, M and d tau/d qd (independent of qdd), then add the qdd part.
+  // step 1 (Algorithm 3): RNEA quantities v', a', f'. With tau as input, qdd is found first by the
+  // articulated-body recursion on the same velocities (accurate in float), then added in.
   detail::forward_pass<S, Level::kDerivatives>(model, ws, q.data(), qd.data(), tau_input ? nullptr : input.data(),
                                                fext);
-  detail::backward_pass<S, Level::kDerivatives>(model, ws, tau_input ? &ws.bias : &ws.tau, /*with_mass=*/true,
-                                                /*with_dq=*/!tau_input);
+  if (tau_input) {
+    detail::articulated_body_pass(model, ws, qd.data(), input.data(), fext, ws.qdd.data());
+    detail::add_acceleration_pass(model, ws, ws.qdd.data());
+  } else {
+    ws.qdd = input;
+  }
+  // step 2: one backward pass gives c' (ws.tau), M and both derivatives of c'
+  detail::backward_pass<S, Level::kDerivatives>(model, ws, &ws.tau, /*with_mass=*/true, /*with_dq=*/true);
   bool factored = false;
   if (!supplied_minv) {
     if (Status s = factorize_mass_matrix(model, ws); !s) return s;
@@ -27,16 +33,6 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
     factored = true;
   }
   const MatrixX<S>& Minv = supplied_minv ? *supplied_minv : ws.Minv;
-  if (tau_input) {
-    // qdd by the articulated-body recursion on the velocities already computed (accurate in float)
-    detail::articulated_body_pass(model, ws, qd.data(), input.data(), fext, ws.qdd.data());
-    ws.tau = input;
-    // step 2: the derivative terms that depend on qdd
-    detail::add_acceleration_pass(model, ws, ws.qdd.data());
-    detail::derivative_dq_pass(model, ws);
-  } else {
-    ws.qdd = input;
-  }
   // step 3: dqdd/du = -M^-1 dc'/du
   multiply_by_minus_minv(model, Minv, ws.dtau_dq, ws.dqdd_dq);
   multiply_by_minus_minv(model, Minv, ws.dtau_dqd, ws.dqdd_dqd);

@@ -63,20 +63,31 @@ void inverse_from_factors(const ModelTpl<S>& model, WorkspaceTpl<S>& ws) {
 template <class S>
 void multiply_by_minus_minv(const ModelTpl<S>& model, const MatrixX<S>& Minv, const MatrixX<S>& dtau,
                             MatrixX<S>& out) {
-  // column j of d tau/d u is nonzero only on the ancestors of j and the subtree of j; plain loops
-  // over contiguous columns (Eigen's per-call overhead dominates at these sizes)
+  // column j of d tau/d u is nonzero only on the ancestors of j and the subtree of j. A chain has
+  // no zeros to skip and Eigen's matrix product is faster there; branchy trees use plain loops.
   const int n = model.nv;
+  long nonzeros = 0;
+  for (int j = 0; j < n; ++j) nonzeros += model.subtree_end[j] - j + model.depth[j] - 1;
+  if (2 * nonzeros > static_cast<long>(n) * n) {
+    out.noalias() = -Minv * dtau;
+    return;
+  }
+  const S* __restrict minv = Minv.data();
   for (int j = 0; j < n; ++j) {
-    S* col = out.data() + static_cast<std::ptrdiff_t>(j) * n;
-    const S* d = dtau.data() + static_cast<std::ptrdiff_t>(j) * n;
+    S* __restrict col = out.data() + static_cast<std::ptrdiff_t>(j) * n;
+    const S* __restrict d = dtau.data() + static_cast<std::ptrdiff_t>(j) * n;
     for (int a = 0; a < n; ++a) col[a] = S(0);
-    auto axpy = [&](int r) {
+    const int end = model.subtree_end[j];
+    for (int r = j; r < end; ++r) {
       const S c = d[r];
-      const S* m = Minv.data() + static_cast<std::ptrdiff_t>(r) * n;
+      const S* __restrict m = minv + static_cast<std::ptrdiff_t>(r) * n;
       for (int a = 0; a < n; ++a) col[a] -= m[a] * c;
-    };
-    for (int r = j; r < model.subtree_end[j]; ++r) axpy(r);
-    for (int r = model.parent[j]; r >= 0; r = model.parent[r]) axpy(r);
+    }
+    for (int r = model.parent[j]; r >= 0; r = model.parent[r]) {
+      const S c = d[r];
+      const S* __restrict m = minv + static_cast<std::ptrdiff_t>(r) * n;
+      for (int a = 0; a < n; ++a) col[a] -= m[a] * c;
+    }
   }
 }
 

@@ -108,7 +108,8 @@ void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S
       ws.f[i] += cross_force<S>(ws.v[i], ws.h[i]);
       if (fext) ws.f[i] -= world_force(m, ws, i, fext + 6 * i);
       if constexpr (kLevel == Level::kDerivatives) {
-        ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, alpha);
+        // beta needs the final accelerations: without qdd, add_acceleration_pass sets it
+        if (qdd) ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, alpha);
         // B = v x* I - I v x + h-bar with (v x* I)^T = -I v x
         Mat6<S> C;
         cross_force_columns<S>(ws.v[i], ws.I[i], C);
@@ -178,8 +179,9 @@ void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_ou
   }
 }
 
-// With tau as input, the first passes ran with qdd = 0. Adds the part of the motion due to qdd:
-// a += a_qdd, f_qdd = I a_qdd, and sets beta from the final accelerations.
+// With tau as input, the forward pass ran with qdd = 0 and the articulated-body pass found qdd.
+// Adds the motion due to qdd before the backward pass: a += a_qdd, f += I a_qdd, and beta from
+// the final accelerations.
 template <class S>
 void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qdd) {
   Vec6<S> a_gravity = Vec6<S>::Zero();
@@ -194,24 +196,7 @@ void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
     const Vec6<S>& a_par = par < 0 ? a_gravity : ws.a[par];
     ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, ws.alpha[i]);
     ws.a[i] += ws.a_qdd[i];
-    ws.f_qdd[i].noalias() = ws.I[i] * ws.a_qdd[i];
-  }
-}
-
-// Second backward pass for tau input: subtree force F = F(qdd = 0) + sum I a_qdd, then dtau_dq.
-template <class S>
-void derivative_dq_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws) {
-  for (int i = m.nv - 1; i >= 0; --i) {
-    const int par = m.parent[i];
-    const Vec6<S>& Si = ws.axis[i];
-    const Vec6<S> F = ws.f[i] + ws.f_qdd[i];
-    Vec6<S> Dq = cross_force<S>(Si, F);
-    Dq.noalias() += ws.Ic[i] * ws.beta[i];
-    Dq.noalias() += ws.Bc[i] * ws.alpha[i];
-    for (int r = i; r >= 0; r = m.parent[r]) ws.dtau_dq(r, i) = dot<S>(ws.axis[r], Dq);
-    for (int j = par; j >= 0; j = m.parent[j])
-      ws.dtau_dq(i, j) = dot<S>(ws.u[i], ws.beta[j]) + dot<S>(ws.w[i], ws.alpha[j]);
-    if (par >= 0) ws.f_qdd[par] += ws.f_qdd[i];
+    ws.f[i].noalias() += ws.I[i] * ws.a_qdd[i];
   }
 }
 
