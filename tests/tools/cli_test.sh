@@ -1,0 +1,203 @@
+#!/usr/bin/env bash
+# Tests for tools/cli (the rbdgrad CLI) and server/main.cpp (rbdgradd), run by CTest:
+#   cli_test.sh CASE [ARGS...]
+# with RBDGRAD, RBDGRADD (built binaries), PYTHON and SOURCE_DIR in the environment.
+set -euo pipefail
+
+: "${RBDGRAD:?}" "${RBDGRADD:?}" "${PYTHON:?}" "${SOURCE_DIR:?}"
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+REFERENCE_DIR="$SOURCE_DIR/tests/data/reference"
+WORK="$(mktemp -d "${TMPDIR:-/tmp}/rbdgrad-cli-test.XXXXXX")"
+trap 'rm -rf "$WORK"' EXIT
+
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# expect_exit CODE CMD...: runs CMD (stdout/stderr to $WORK/stdout, $WORK/stderr) and checks its exit code
+expect_exit() {
+  local want=$1; shift
+  local got=0
+  "$@" >"$WORK/stdout" 2>"$WORK/stderr" || got=$?
+  if [[ $got -ne $want ]]; then
+    echo "--- stdout"; cat "$WORK/stdout"; echo "--- stderr"; cat "$WORK/stderr"
+    fail "exit code $got, expected $want: $*"
+  fi
+}
+
+# expect_in FILE TEXT: FILE contains TEXT (fixed string)
+expect_in() {
+  grep -qF -- "$2" "$1" || { echo "--- $1"; cat "$1"; fail "'$2' not found in $(basename "$1")"; }
+}
+
+# a copy of the first N reference states of ROBOT, edited by a Python snippet working on `states`
+make_states() {
+  local robot=$1 n=$2 edit=$3 out=$4
+  "$PYTHON" - "$REFERENCE_DIR/$robot.jsonl" "$n" "$out" <<PY
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+header, states = lines[0], lines[1:1 + int(sys.argv[2])]
+$edit
+with open(sys.argv[3], "w") as f:
+    for obj in [header] + states:
+        f.write(json.dumps(obj) + "\n")   # writes NaN / Infinity tokens as Python does
+PY
+}
+
+# every output of every reference state within a relative Frobenius error
+case_eval_reference() {
+  local robot=$1 precision=$2 tol=$3; shift 3
+  expect_exit 0 "$RBDGRAD" eval --model "$robot" --in "$REFERENCE_DIR/$robot.jsonl" --out "$WORK/out.jsonl" \
+    --precision "$precision"
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/$robot.jsonl" --tol "$tol" \
+    --precision "$precision" --outputs qdd,M,Minv,dqdd_dq,dqdd_dqd,tau_id,dtau_dq,dtau_dqd "$@"
+}
+
+# states with qdd instead of tau: qdd is the input, every output still matches the reference
+case_eval_qdd_input() {
+  make_states iiwa14 32 'for s in states: del s["tau"]' "$WORK/in.jsonl"
+  expect_exit 0 "$RBDGRAD" eval --in "$WORK/in.jsonl" --out "$WORK/out.jsonl"
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/iiwa14.jsonl" --tol 1e-10
+}
+
+# --outputs subsets take other algorithm paths (forward_dynamics, crba, rnea alone): same values
+case_eval_output_subsets() {
+  local outputs
+  for outputs in qdd M tau_id qdd,M M,tau_id M,dtau_dq qdd,dtau_dqd Minv M,dqdd_dq tau_id,dtau_dq; do
+    expect_exit 0 "$RBDGRAD" eval --model panda --in "$REFERENCE_DIR/panda.jsonl" --out "$WORK/out.jsonl" \
+      --outputs "$outputs"
+    "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/panda.jsonl" --tol 1e-10 \
+      --outputs "$outputs" >"$WORK/compare" || { cat "$WORK/compare"; fail "--outputs $outputs"; }
+  done
+  # listed in any order and repeated: written in the canonical order, once
+  expect_exit 0 "$RBDGRAD" eval --model panda --in "$REFERENCE_DIR/panda.jsonl" --out "$WORK/out.jsonl" \
+    --outputs tau_id,qdd,tau_id
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/panda.jsonl" --tol 1e-10 --outputs qdd,tau_id
+}
+
+# a bad state gets an error object naming state and field; the others are still computed; exit 1
+case_eval_bad_states() {
+  make_states iiwa14 4 '
+states[1]["qd"][2] = float("nan")
+states[2]["q"] = states[2]["q"][:6]
+del states[3]["tau"]; del states[3]["qdd"]' "$WORK/in.jsonl"
+  expect_exit 1 "$RBDGRAD" eval --in "$WORK/in.jsonl" --out "$WORK/out.jsonl"
+  expect_in "$WORK/stderr" "1 of 4 states evaluated, 3 failed"
+  "$PYTHON" - "$WORK/out.jsonl" <<'PY'
+import json, sys
+header, *states = [json.loads(l) for l in open(sys.argv[1])]
+by_index = {s["index"]: s for s in states}
+assert sorted(by_index) == [0, 1, 2, 3], sorted(by_index)
+assert "error" not in by_index[0] and len(by_index[0]["dqdd_dq"]) == 49, by_index[0].keys()
+assert by_index[1] == {"index": 1, "error": "state 1: field 'qd' element 2 is not finite (nan)"}, by_index[1]
+assert by_index[2] == {"index": 2, "error": "state 2: field 'q' has 6 values, expected 7"}, by_index[2]
+assert by_index[3]["error"].startswith("state 3:") and "'tau'" in by_index[3]["error"], by_index[3]
+print("OK")
+PY
+}
+
+# Q16.16: saturation is an error value for that state, not a silent clamp
+case_eval_fixed_point() {
+  make_states iiwa14 3 '
+states[1]["qd"] = [900.0] * 7          # velocity products far beyond 32768
+states[2]["q"][0] = 1e6                # not representable in Q16.16' "$WORK/in.jsonl"
+  expect_exit 1 "$RBDGRAD" eval --in "$WORK/in.jsonl" --out "$WORK/out.jsonl" --precision fixed
+  "$PYTHON" - "$WORK/out.jsonl" <<'PY'
+import json, sys
+header, *states = [json.loads(l) for l in open(sys.argv[1])]
+assert header["precision"] == "fixed", header
+s0, s1, s2 = states
+assert "error" not in s0 and len(s0["M"]) == 49, s0
+assert s1["index"] == 1 and "fixed-point overflow" in s1["error"], s1
+assert s2["error"] == "state 2: out_of_range: field 'q' element 0 (1000000) is outside the range of fixed", s2
+print("OK")
+PY
+  # M alone (crba) stays in range: within the resolution of Q16.16
+  expect_exit 0 "$RBDGRAD" eval --in "$REFERENCE_DIR/iiwa14.jsonl" --out "$WORK/out.jsonl" --precision fixed --outputs M
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/iiwa14.jsonl" --tol 1e-2 --precision fixed
+}
+
+# usage errors exit 2 with a usage line; file and model errors exit 1 with the reader's message
+case_usage_errors() {
+  local in="$REFERENCE_DIR/iiwa14.jsonl" out="$WORK/out.jsonl"
+  expect_exit 2 "$RBDGRAD"
+  expect_in "$WORK/stderr" "usage: rbdgrad"
+  expect_exit 2 "$RBDGRAD" frobnicate
+  expect_in "$WORK/stderr" "unknown command 'frobnicate'"
+  expect_exit 2 "$RBDGRAD" eval --out "$out"
+  expect_in "$WORK/stderr" "--in is required"
+  expect_exit 2 "$RBDGRAD" eval --in "$in" --out "$out" --precision f16
+  expect_in "$WORK/stderr" "unknown precision 'f16'"
+  expect_exit 2 "$RBDGRAD" eval --in "$in" --out "$out" --outputs qdd,jacobian
+  expect_in "$WORK/stderr" "unknown output 'jacobian'"
+  expect_exit 2 "$RBDGRAD" eval --in "$in" --out "$out" --gravity 0,-9.81
+  expect_in "$WORK/stderr" "--gravity"
+  expect_exit 2 "$RBDGRAD" eval --in "$in" --out "$out" --bogus
+  expect_in "$WORK/stderr" "unknown option '--bogus'"
+  expect_exit 2 "$RBDGRAD" eval --in "$in" --in "$in" --out "$out"
+  expect_in "$WORK/stderr" "given twice"
+  expect_exit 2 "$RBDGRAD" eval --in
+  expect_in "$WORK/stderr" "needs a value"
+  [[ ! -e "$out" ]] || fail "a usage error wrote $out"
+  # not usage errors
+  expect_exit 1 "$RBDGRAD" eval --in "$WORK/missing.jsonl" --out "$out"
+  expect_in "$WORK/stderr" "missing.jsonl"
+  printf '{"robot":"x","nv":7}\n{"index":0,"q":[1,2,\n' >"$WORK/bad.jsonl"
+  expect_exit 1 "$RBDGRAD" eval --in "$WORK/bad.jsonl" --out "$out"
+  expect_in "$WORK/stderr" "bad.jsonl:2"
+  expect_exit 1 "$RBDGRAD" eval --model no_such_robot --in "$in" --out "$out"
+  expect_in "$WORK/stderr" "not an embedded robot"
+  # help and version succeed
+  expect_exit 0 "$RBDGRAD" --help
+  expect_in "$WORK/stdout" "eval"
+  expect_exit 0 "$RBDGRAD" eval --help
+  expect_in "$WORK/stdout" "--precision f64|f32|fixed"
+  expect_exit 0 "$RBDGRAD" --version
+  expect_in "$WORK/stdout" "rbdgrad 0."
+}
+
+# --gravity reaches the model: the header says so, and the input header's different gravity is flagged
+case_eval_gravity() {
+  expect_exit 0 "$RBDGRAD" eval --in "$REFERENCE_DIR/iiwa14.jsonl" --out "$WORK/out.jsonl" --gravity 0,0,0 --outputs qdd
+  expect_in "$WORK/stderr" "warning: the input header has gravity"
+  expect_in "$WORK/out.jsonl" '"gravity":[0.0,0.0,0.0]'
+  # without gravity the same torques give other accelerations than the reference's
+  if "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/iiwa14.jsonl" --tol 1e-6 >/dev/null; then
+    fail "qdd unchanged by --gravity 0,0,0"
+  fi
+  # the reference's own gravity, spelt out: no warning, reference values
+  expect_exit 0 "$RBDGRAD" eval --in "$REFERENCE_DIR/iiwa14.jsonl" --out "$WORK/out.jsonl" --gravity 0,0,-9.81 --outputs qdd
+  if grep -qF warning "$WORK/stderr"; then fail "unexpected warning: $(cat "$WORK/stderr")"; fi
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/iiwa14.jsonl" --tol 1e-10
+}
+
+case_model_summary() {
+  expect_exit 0 "$RBDGRAD" model --model panda
+  expect_in "$WORK/stdout" "model 'panda'"
+  expect_in "$WORK/stdout" "9 moving joints"
+  expect_exit 0 "$RBDGRAD" model --model "$SOURCE_DIR/robots/hyq.urdf"
+  expect_in "$WORK/stdout" "12 moving joints"
+}
+
+case_daemon_once() {
+  expect_exit 0 "$RBDGRADD" --once
+  expect_in "$WORK/stdout" "model 'iiwa14' (iiwa14.urdf): 7 moving joints"
+  expect_in "$WORK/stdout" "iiwa_joint_7"
+  expect_in "$WORK/stdout" "backend cpu: ready (in-process core library)"
+  expect_exit 1 "$RBDGRADD" --once --model no_such_robot
+  expect_exit 2 "$RBDGRADD" --bogus
+}
+
+# the daemon runs until SIGTERM, then exits 0
+case_daemon_signal() {
+  "$RBDGRADD" >"$WORK/log" 2>&1 &
+  local pid=$!
+  for _ in $(seq 100); do grep -qF "backend cpu: ready" "$WORK/log" && break; sleep 0.1; done
+  kill -0 "$pid" 2>/dev/null || fail "rbdgradd exited before a signal: $(cat "$WORK/log")"
+  kill -TERM "$pid"
+  local rc=0; wait "$pid" || rc=$?
+  [[ $rc -eq 0 ]] || fail "rbdgradd exit code $rc after SIGTERM"
+  expect_in "$WORK/log" "shutting down"
+}
+
+name=${1:?usage: cli_test.sh CASE [ARGS...]}; shift
+"case_$name" "$@"
+echo "PASS: $name $*"
