@@ -137,7 +137,9 @@ TEST_P(ReferenceAccuracy, FixedPointErrorWithinMeasuredBound) {
     if (GetParam() == b.robot) bound = &b;
   ASSERT_NE(bound, nullptr);
   EXPECT_LE(e.failures, bound->max_refused) << e.first_failure;
-  if (e.failures > 0) EXPECT_NE(e.first_failure.find("fixed-point overflow"), std::string::npos) << e.first_failure;
+  if (e.failures > 0) {
+    EXPECT_NE(e.first_failure.find("fixed-point overflow"), std::string::npos) << e.first_failure;
+  }
   for (int k = 0; k < kNumOutputs; ++k) EXPECT_LE(e.worst(k), bound->worst) << kOutputs[k];
 }
 
