@@ -39,6 +39,7 @@ struct WorkspaceTpl {
   std::vector<Vec6<S>> a;      // acceleration including -gravity
   std::vector<Vec6<S>> a_qdd;  // part of a due to qdd (fd_derivatives with tau input)
   std::vector<Mat6<S>> I;      // body spatial inertia
+  std::vector<Mat6<S>> I_joint;  // body spatial inertia about its joint point (world axes)
   std::vector<Mat6<S>> Ic;     // composite inertia of the subtree
   std::vector<Mat6<S>> Bc;     // composite d(force)/d(velocity-like term) operator of the subtree
   std::vector<Vec6<S>> h;      // body momentum I v
@@ -48,7 +49,10 @@ struct WorkspaceTpl {
   std::vector<Vec6<S>> u;      // Ic S
   std::vector<Vec6<S>> w;      // Bc^T S
 
-  // articulated-body recursion (forward_dynamics, fd_derivatives with tau input)
+  // articulated-body recursion (forward_dynamics, fd_derivatives with tau input); vectors about
+  // each body's joint point, in world axes
+  std::vector<Vec6<S>> aba_axis;  // S
+  std::vector<Vec6<S>> aba_c;     // velocity-product acceleration (v_parent x S) qd
   std::vector<Mat6<S>> IA;     // articulated inertia of the subtree
   std::vector<Vec6<S>> pA;     // articulated bias force of the subtree
   std::vector<Vec6<S>> U;      // IA S
