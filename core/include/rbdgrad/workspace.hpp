@@ -43,6 +43,7 @@ struct WorkspaceTpl {
   std::vector<Mat6<S>> Ic;     // composite inertia of the subtree
   std::vector<Mat6<S>> Bc;     // composite d(force)/d(velocity-like term) operator of the subtree
   std::vector<Vec6<S>> h;      // body momentum I v
+  std::vector<Vec6<S>> f_qdd;  // I a_qdd, then summed over the subtree (fd_derivatives, tau input, f64)
   std::vector<Vec6<S>> f;      // body force I a + v x* I v - fext, then subtree force after the backward pass
   std::vector<Vec6<S>> alpha;  // v_parent x S: velocity change per unit of q_i not due to rigid motion
   std::vector<Vec6<S>> beta;   // a_parent x S + v_parent x alpha: same for acceleration

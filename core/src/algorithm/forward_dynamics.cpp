@@ -12,7 +12,7 @@ Status forward_dynamics(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
                         std::type_identity_t<const S*> fext) {
   detail::NumericGuard<S> guard("forward_dynamics");
   // forward pass: velocities and bias terms; then the articulated-body recursion
-  detail::forward_pass<S, detail::Level::kDynamics>(model, ws, q.data(), qd.data(), nullptr, fext);
+  detail::forward_pass<S, detail::Level::kDynamics, /*kForAba=*/true>(model, ws, q.data(), qd.data(), nullptr, fext);
   detail::articulated_body_pass(model, ws, qd.data(), tau.data(), fext, ws.qdd.data());
   return guard.finish(ws.qdd);
 }

@@ -27,7 +27,7 @@ inline void cross_force_columns(const Vec6<S>& m, const Mat6<S>& A, Mat6<S>& out
 
 // body i placement and joint axis in the world
 template <class S>
-inline void place_body(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, int i, const S& qi) {
+inline void place_body(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, int i, const S& qi, bool joint_inertia) {
   const int par = m.parent[i];
   const Mat3<S>& R0 = m.joint_rotation[i];
   Mat3<S> Rl;
@@ -60,12 +60,12 @@ inline void place_body(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, int i, const S
     ws.axis[i].template head<3>().setZero();
     ws.axis[i].template tail<3>() = z;
   }
-  // body inertia in world axes, about the joint point (for the articulated-body pass) and about
-  // the world origin
+  // body inertia in world axes about the world origin, and about the joint point when the
+  // articulated-body pass follows
   const Mat3<S>& R = ws.R[i];
   const Vec3<S> c = R * m.com[i];
   const Mat3<S> Icw = R * m.inertia_com[i] * R.transpose();
-  spatial_inertia<S>(m.mass[i], c, Icw, ws.I_joint[i]);
+  if (joint_inertia) spatial_inertia<S>(m.mass[i], c, Icw, ws.I_joint[i]);
   spatial_inertia<S>(m.mass[i], Vec3<S>(c + ws.p[i]), Icw, ws.I[i]);
 }
 
@@ -85,13 +85,14 @@ inline Vec6<S> world_force(const ModelTpl<S>& m, const WorkspaceTpl<S>& ws, int 
 // Forward pass over bodies: placement and inertia; at kDynamics also velocity, acceleration
 // (qdd = 0 when qdd is null) and body force; at kDerivatives also alpha, beta and B.
 // Initialises the composites (Ic, Bc) with the body's own terms for the backward pass.
-template <class S, Level kLevel>
+// kForAba: also the inertias about the joint points that articulated_body_pass needs.
+template <class S, Level kLevel, bool kForAba = false>
 void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S* qd, const S* qdd,
                   const S* fext) {
   Vec6<S> a_gravity = Vec6<S>::Zero();
   a_gravity.template tail<3>() = -m.gravity;
   for (int i = 0; i < m.nv; ++i) {
-    place_body(m, ws, i, q[i]);
+    place_body(m, ws, i, q[i], kForAba);
     ws.Ic[i] = ws.I[i];
     if constexpr (kLevel == Level::kInertia) continue;
     else {
@@ -191,11 +192,11 @@ void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_ou
   }
 }
 
-// With tau as input, the forward pass ran with qdd = 0 and the articulated-body pass found qdd.
-// Adds the motion due to qdd before the backward pass: a += a_qdd, f += I a_qdd, and beta from
-// the final accelerations.
+// With tau as input, the forward pass ran with qdd = 0 and qdd was found afterwards. Adds the
+// motion due to qdd: a += a_qdd, beta from the final accelerations, and I a_qdd either into the
+// body forces (before the backward pass) or into f_qdd (after it, for derivative_dq_pass).
 template <class S>
-void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qdd) {
+void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qdd, bool into_body_force) {
   Vec6<S> a_gravity = Vec6<S>::Zero();
   a_gravity.template tail<3>() = -m.gravity;
   for (int i = 0; i < m.nv; ++i) {
@@ -208,7 +209,26 @@ void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
     const Vec6<S>& a_par = par < 0 ? a_gravity : ws.a[par];
     ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, ws.alpha[i]);
     ws.a[i] += ws.a_qdd[i];
-    ws.f[i].noalias() += ws.I[i] * ws.a_qdd[i];
+    if (into_body_force) ws.f[i].noalias() += ws.I[i] * ws.a_qdd[i];
+    else ws.f_qdd[i].noalias() = ws.I[i] * ws.a_qdd[i];
+  }
+}
+
+// Second backward pass, after backward_pass ran with qdd = 0 and add_acceleration_pass put the qdd
+// part of the forces in f_qdd: subtree force F = F(qdd = 0) + sum of I a_qdd, then dtau_dq.
+template <class S>
+void derivative_dq_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws) {
+  for (int i = m.nv - 1; i >= 0; --i) {
+    const int par = m.parent[i];
+    const Vec6<S>& Si = ws.axis[i];
+    const Vec6<S> F = ws.f[i] + ws.f_qdd[i];
+    Vec6<S> Dq = cross_force<S>(Si, F);
+    Dq.noalias() += ws.Ic[i] * ws.beta[i];
+    Dq.noalias() += ws.Bc[i] * ws.alpha[i];
+    for (int r = i; r >= 0; r = m.parent[r]) ws.dtau_dq(r, i) = dot<S>(ws.axis[r], Dq);
+    for (int j = par; j >= 0; j = m.parent[j])
+      ws.dtau_dq(i, j) = dot<S>(ws.u[i], ws.beta[j]) + dot<S>(ws.w[i], ws.alpha[j]);
+    if (par >= 0) ws.f_qdd[par] += ws.f_qdd[i];
   }
 }
 
@@ -245,8 +265,8 @@ inline void shift_inertia_add(const Mat6<S>& I, const Vec3<S>& d, Mat6<S>& out) 
   out.template bottomRightCorner<3, 3>() += Rb;
 }
 
-// Articulated-body algorithm (RBDA table 7.1), after forward_pass at kDynamics or above (world
-// placements, velocities and alpha set). Writes qdd. Vectors are in world axes but each body's are
+// Articulated-body algorithm (RBDA table 7.1), after forward_pass<.., kForAba = true> at kDynamics
+// or above (world placements, velocities, alpha and joint-point inertias set). Writes qdd. Vectors are in world axes but each body's are
 // taken about its own joint point: about the world origin, S^T IA S of a distal joint is the small
 // difference of terms of size m |p|^2, which costs three digits in float (Pinocchio's local frames
 // avoid this too). Used for forward dynamics and for qdd in fd_derivatives.
