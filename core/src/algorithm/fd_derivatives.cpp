@@ -4,7 +4,7 @@
 
 #include "numeric_guard.hpp"
 #include "rbdgrad/scalar_types.hpp"
-#include "world_passes.hpp"
+#include "articulated_body_pass.hpp"
 
 namespace rbdgrad {
 
