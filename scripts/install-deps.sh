@@ -9,6 +9,7 @@ packages=(
   liburdfdom-dev liburdfdom-headers-dev libconsole-bridge-dev  # URDF parsing (core)
   nlohmann-json3-dev             # JSON Lines state files (io, CLI)
   libspdlog-dev                  # daemon logs (server)
+  libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc  # service API (proto/)
   libyaml-cpp-dev                # daemon configuration (coming with the service)
   libgtest-dev libgmock-dev      # unit tests
   libbenchmark-dev               # microbenchmarks (bench)

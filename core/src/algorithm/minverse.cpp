@@ -16,6 +16,12 @@ Status factorize_mass_matrix(const ModelTpl<S>& model, WorkspaceTpl<S>& ws) {
   // leaves first: eliminate joint k from its ancestors (RBDA table 6.3)
   for (int k = n - 1; k >= 0; --k) {
     const S d = L(k, k);
+    if constexpr (!is_fixed_point_v<S>) {
+      using std::isfinite;
+      if (!isfinite(d))
+        return out_of_range("mass matrix is not finite at joint " + std::to_string(k) + " ('" + model.joints[k].name +
+                            "'): non-finite input or overflow");
+    }
     if (!(d > S(0)))
       return failed_precondition("mass matrix is not positive definite at joint " + std::to_string(k) + " ('" +
                                  model.joints[k].name + "'): it moves no inertia in this configuration");

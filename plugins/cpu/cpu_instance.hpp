@@ -1,0 +1,61 @@
+// One model on the CPU backend: the model in the three scalar types, one set of workspaces per
+// worker thread and precision (all sized here, so compute never allocates), and the thread pool.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <vector>
+
+#include "rbdgrad/model.hpp"
+#include "rbdgrad/plugin_api.h"
+#include "rbdgrad/status.hpp"
+#include "state_evaluator.hpp"
+#include "thread_pool.hpp"
+
+namespace rbdgrad::plugin {
+
+class CpuInstance {
+ public:
+  /// \param[in] model a validated model (model_from_desc), cast here once to f32 and Q16.16.
+  /// \param[in] threads workers, the calling thread included (>= 1).
+  /// \param[out] out set on success; errors: thread creation failure (internal).
+  static Status create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out);
+
+  /// Validates `batch` (validate_batch) and computes it: the states are split into contiguous chunks,
+  /// one per worker. Every state is attempted; state_status says which failed, and the error names
+  /// the first of them: "state 3: fd_derivatives: result is not finite (NaN or Inf)".
+  /// Not reentrant (the ABI never calls compute concurrently on one instance).
+  Status compute(const rbdgrad_batch* batch);
+
+  std::size_t threads() const { return pool_.size(); }
+  int nv() const { return model_.nv; }
+
+ private:
+  // one worker's evaluators, one per precision
+  struct Worker {
+    explicit Worker(const CpuInstance& instance);
+    template <class S> StateEvaluator<S>& get();
+    StateEvaluator<double> f64;
+    StateEvaluator<float> f32;
+    StateEvaluator<Q16_16> fixed;
+  };
+  // the outcome of one chunk of states; on its own cache line, as workers write them concurrently
+  struct alignas(64) ChunkResult {
+    std::size_t failures = 0;
+    std::size_t first_failed = 0;
+    Status status;  // of first_failed
+  };
+
+  CpuInstance(const Model& model, std::size_t threads);
+  template <class S> const ModelTpl<S>& model() const;
+  template <class S> Status compute_typed(const rbdgrad_batch& batch);
+
+  Model model_;
+  ModelTpl<float> model_f32_;
+  ModelTpl<Q16_16> model_fixed_;
+  std::vector<std::unique_ptr<Worker>> workers_;  // (threads) separate allocations: no shared cache lines
+  std::vector<ChunkResult> chunks_;               // (threads) at most one chunk per worker
+  ThreadPool pool_;                               // last: its threads stop before the rest goes
+};
+
+}  // namespace rbdgrad::plugin

@@ -1,0 +1,88 @@
+#include "thread_pool.hpp"
+
+namespace rbdgrad::plugin {
+
+ThreadPool::ThreadPool(std::size_t threads) {
+  const std::size_t extra = threads > 1 ? threads - 1 : 0;
+  threads_.reserve(extra);
+  try {
+    for (std::size_t w = 1; w <= extra; ++w) threads_.emplace_back(&ThreadPool::worker_loop, this, w);
+  } catch (...) {
+    // a thread failed to start: stop the ones that did before reporting it
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    start_.notify_all();
+    for (std::thread& t : threads_) t.join();
+    throw;
+  }
+}
+
+ThreadPool::~ThreadPool() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  start_.notify_all();
+  for (std::thread& t : threads_) t.join();
+}
+
+void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
+  if (tasks == 0) return;
+  std::lock_guard serial(run_mutex_);
+  bool wake = false;
+  {
+    std::lock_guard lock(mutex_);
+    fn_ = fn;
+    ctx_ = ctx;
+    tasks_ = tasks;
+    next_task_.store(0, std::memory_order_relaxed);
+    error_ = nullptr;
+    // one task needs no hand-off: the pool threads stay asleep
+    wake = tasks > 1 && !threads_.empty();
+    if (wake) {
+      busy_ = threads_.size();
+      ++generation_;
+    }
+  }
+  if (wake) start_.notify_all();
+  drain(0);
+  std::unique_lock lock(mutex_);
+  done_.wait(lock, [this] { return busy_ == 0; });
+  if (error_) {
+    std::exception_ptr e = std::move(error_);
+    error_ = nullptr;
+    lock.unlock();
+    std::rethrow_exception(e);
+  }
+}
+
+void ThreadPool::worker_loop(std::size_t worker) {
+  std::uint64_t seen = 0;
+  for (;;) {
+    {
+      std::unique_lock lock(mutex_);
+      start_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+    }
+    drain(worker);
+    std::lock_guard lock(mutex_);
+    if (--busy_ == 0) done_.notify_one();
+  }
+}
+
+void ThreadPool::drain(std::size_t worker) {
+  // the job fields were published under mutex_ before this worker saw the new generation
+  for (std::size_t task; (task = next_task_.fetch_add(1, std::memory_order_relaxed)) < tasks_;) {
+    try {
+      fn_(ctx_, task, worker);
+    } catch (...) {
+      std::lock_guard lock(mutex_);
+      if (!error_) error_ = std::current_exception();
+    }
+  }
+}
+
+}  // namespace rbdgrad::plugin
