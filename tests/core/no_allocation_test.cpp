@@ -2,9 +2,7 @@
 // Own executable: it replaces the global operator new to count allocations.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
+#include "../support/counting_new.hpp"
 
 #include "../support/test_models.hpp"
 #include "rbdgrad/algorithm/fd_derivatives.hpp"
@@ -12,45 +10,22 @@
 #include "rbdgrad/algorithm/rnea_derivatives.hpp"
 #include "rbdgrad/scalar_types.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}
-
-// the replacements below pair malloc-family allocation with free; GCC cannot see that new is replaced
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t size, std::align_val_t align) {
-  ++g_allocations;
-  const std::size_t a = static_cast<std::size_t>(align);
-  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-
 namespace rbdgrad {
 namespace {
 
 template <class S>
 void expect_no_allocation(const std::string& robot) {
   const ModelTpl<S> m = testing::load_embedded(robot).template cast<S>();
-  const long at_start = g_allocations.load();
+  const long at_start = testing::g_allocations.load();
   WorkspaceTpl<S> ws(m);
-  ASSERT_GT(g_allocations.load(), at_start) << "the allocation counter is not hooked in";
+  ASSERT_GT(testing::g_allocations.load(), at_start) << "the allocation counter is not hooked in";
   std::mt19937 rng(9);
   const VectorX<S> q = testing::random_vector(rng, m.nv, 1.0).template cast<S>(),
                    qd = testing::random_vector(rng, m.nv, 1.0).template cast<S>(),
                    u = testing::random_vector(rng, m.nv, 1.0).template cast<S>(),
                    fext = testing::random_vector(rng, 6 * m.nv, 1.0).template cast<S>();
   const MatrixX<S> minv = MatrixX<S>::Identity(m.nv, m.nv);
-  const long before = g_allocations.load();
+  const long before = testing::g_allocations.load();
   bool ok = true;
   ok &= rnea(m, ws, q, qd, u, fext.data()).is_ok();
   ok &= crba(m, ws, q).is_ok();
@@ -59,7 +34,7 @@ void expect_no_allocation(const std::string& robot) {
   ok &= rnea_derivatives(m, ws, q, qd, u).is_ok();
   ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kTau).is_ok();
   ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kQdd, fext.data(), &minv).is_ok();
-  const long allocations = g_allocations.load() - before;
+  const long allocations = testing::g_allocations.load() - before;
   EXPECT_TRUE(ok) << robot;
   EXPECT_EQ(allocations, 0) << robot << " " << scalar_name<S>();
 }

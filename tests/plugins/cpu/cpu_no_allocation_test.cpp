@@ -3,37 +3,13 @@
 // new, which the dlopen()ed plugin also calls (it links libstdc++ dynamically).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
+#include "../../support/counting_new.hpp"
+
 #include <random>
 
 #include "../../support/test_models.hpp"
 #include "../support/plugin_harness.hpp"
 #include "common/model_desc.hpp"
-
-namespace {
-std::atomic<long> g_allocations{0};
-}
-
-// the replacements below pair malloc-family allocation with free; GCC cannot see that new is replaced
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t size, std::align_val_t align) {
-  ++g_allocations;
-  const std::size_t a = static_cast<std::size_t>(align);
-  if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace rbdgrad::testing {
 namespace {
