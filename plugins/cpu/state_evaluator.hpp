@@ -1,13 +1,6 @@
-// Evaluates the requested outputs of one batch state in one scalar type, running only the core
-// algorithms those outputs need. The selection follows tools/cli/evaluator.cpp:
-// - M^-1 or d qdd/d(q, qd): fd_derivatives (it also gives qdd and leaves M(q) in the workspace);
-// - else qdd from tau when qdd, tau or d tau/d(q, qd) is asked for: forward_dynamics (ABA, no M);
-// - tau and its derivatives at that qdd (or at the input qdd): rnea_derivatives (leaves M(q)), or
-//   rnea for tau alone;
-// - M: from the algorithms above when one ran, else crba.
-// Additions for the plugin ABI: external forces go to every algorithm that takes them, and the
-// caller's M^-1 goes to fd_derivatives. With a caller's M^-1 the MINV output is still M^-1(q),
-// computed by minverse: the supplied matrix may be a cached one from another q.
+// Evaluates the requested outputs of one batch state in one scalar type through the core's
+// evaluate_outputs (which runs only the algorithms those outputs need) and writes them into the
+// batch. External forces and the caller's M^-1 are passed on.
 #pragma once
 
 #include <cstddef>
@@ -32,7 +25,6 @@ class StateEvaluator {
  private:
   WorkspaceTpl<S> ws_;
   StateBuffers<S> buffers_;
-  VectorX<S> qdd_;  // (nv) the qdd the inverse dynamics use (computed, or the input)
 };
 
 }  // namespace rbdgrad::plugin

@@ -3,11 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "rbdgrad/algorithm/crba.hpp"
-#include "rbdgrad/algorithm/fd_derivatives.hpp"
-#include "rbdgrad/algorithm/forward_dynamics.hpp"
-#include "rbdgrad/algorithm/rnea.hpp"
-#include "rbdgrad/algorithm/rnea_derivatives.hpp"
+#include "rbdgrad/algorithm/evaluate.hpp"
 #include "rbdgrad/scalar_types.hpp"
 
 namespace rbdgrad::cli {
@@ -67,7 +63,6 @@ Evaluator<S>::Evaluator(const Model& model, const OutputSet& outputs)
   q_.resize(n);
   qd_.resize(n);
   input_.resize(n);
-  qdd_.resize(n);
   // buffers sized once: the loop over states does not allocate for results
   for (int k = 0; k < kNumOutputs; ++k) {
     if (!outputs_[static_cast<std::size_t>(k)]) continue;
@@ -108,48 +103,25 @@ Status Evaluator<S>::evaluate(const io::StateRecord& s) {
 
 template <class S>
 Status Evaluator<S>::run(bool tau_input) {
-  auto want = [&](Output k) { return outputs_[static_cast<std::size_t>(k)]; };
+  // the CLI's output order -> the core's output flags
+  constexpr std::uint32_t kFlags[kNumOutputs] = {kOutputQdd,     kOutputM,   kOutputMinv,   kOutputDqddDq,
+                                                 kOutputDqddDqd, kOutputTau, kOutputDtauDq, kOutputDtauDqd};
+  std::uint32_t flags = 0;
+  for (int k = 0; k < kNumOutputs; ++k)
+    if (outputs_[static_cast<std::size_t>(k)]) flags |= kFlags[k];
+  if (Status st = evaluate_outputs(model_, ws_, q_, qd_, input_, tau_input ? InputKind::kTau : InputKind::kQdd, flags);
+      !st)
+    return st;
   auto out = [&](Output k) -> std::vector<double>& { return results_[static_cast<std::size_t>(k)]; };
-  const bool want_fd = want(kMinv) || want(kDqddDq) || want(kDqddDqd);
-  const bool want_id_derivatives = want(kDtauDq) || want(kDtauDqd);
-  const bool want_id = want(kTauId) || want_id_derivatives;
-  bool have_M = false;  // fd_derivatives and rnea_derivatives leave M(q) in ws_.M
-
-  // forward dynamics: the derivatives (and M^-1) when asked for, else only the qdd that is needed
-  if (want_fd) {
-    if (Status st = fd_derivatives(model_, ws_, q_, qd_, input_, tau_input ? InputKind::kTau : InputKind::kQdd); !st)
-      return st;
-    have_M = true;
-    if (want(kMinv)) copy_out(ws_.Minv, out(kMinv));
-    if (want(kDqddDq)) copy_out(ws_.dqdd_dq, out(kDqddDq));
-    if (want(kDqddDqd)) copy_out(ws_.dqdd_dqd, out(kDqddDqd));
-    qdd_ = ws_.qdd;
-  } else if (tau_input && (want(kQdd) || want_id)) {
-    // articulated-body algorithm: qdd only, M is not formed
-    if (Status st = forward_dynamics(model_, ws_, q_, qd_, input_); !st) return st;
-    qdd_ = ws_.qdd;
-  } else {
-    qdd_ = input_;  // qdd input (or qdd not needed)
-  }
-  if (want(kQdd)) copy_out(qdd_, out(kQdd));
-
-  // inverse dynamics at that qdd
-  if (want_id_derivatives) {
-    if (Status st = rnea_derivatives(model_, ws_, q_, qd_, qdd_); !st) return st;
-    have_M = true;
-    if (want(kDtauDq)) copy_out(ws_.dtau_dq, out(kDtauDq));
-    if (want(kDtauDqd)) copy_out(ws_.dtau_dqd, out(kDtauDqd));
-  } else if (want_id) {
-    if (Status st = rnea(model_, ws_, q_, qd_, qdd_); !st) return st;
-  }
+  auto want = [&](Output k) { return outputs_[static_cast<std::size_t>(k)]; };
+  if (want(kQdd)) copy_out(ws_.qdd, out(kQdd));
+  if (want(kM)) copy_out(ws_.M, out(kM));
+  if (want(kMinv)) copy_out(ws_.Minv, out(kMinv));
+  if (want(kDqddDq)) copy_out(ws_.dqdd_dq, out(kDqddDq));
+  if (want(kDqddDqd)) copy_out(ws_.dqdd_dqd, out(kDqddDqd));
   if (want(kTauId)) copy_out(ws_.tau, out(kTauId));
-
-  if (want(kM)) {
-    if (!have_M) {
-      if (Status st = crba(model_, ws_, q_); !st) return st;
-    }
-    copy_out(ws_.M, out(kM));
-  }
+  if (want(kDtauDq)) copy_out(ws_.dtau_dq, out(kDtauDq));
+  if (want(kDtauDqd)) copy_out(ws_.dtau_dqd, out(kDtauDqd));
   return Status::ok();
 }
 

@@ -53,7 +53,7 @@ class Evaluator {
   ModelTpl<S> model_;
   WorkspaceTpl<S> ws_;
   OutputSet outputs_;
-  VectorX<S> q_, qd_, input_, qdd_;  // (nv) inputs in S, and the qdd the inverse dynamics use
+  VectorX<S> q_, qd_, input_;  // (nv) inputs in S
   std::array<std::vector<double>, kNumOutputs> results_;  // float64 copies of the outputs
   std::vector<io::OutputArray> arrays_;
 };
