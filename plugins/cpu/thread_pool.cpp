@@ -1,6 +1,26 @@
 #include "thread_pool.hpp"
 
 namespace rbdgrad::plugin {
+namespace {
+
+// about 20 microseconds of polling before a wait falls back to the condition variable
+constexpr int kSpinIterations = 4000;
+
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#else
+  std::this_thread::yield();
+#endif
+}
+
+// polls `ready` for a while; the caller then waits properly under the lock either way
+template <class Ready>
+void spin_until(Ready&& ready) {
+  for (int i = 0; i < kSpinIterations && !ready(); ++i) cpu_relax();
+}
+
+}  // namespace
 
 ThreadPool::ThreadPool(std::size_t threads) {
   const std::size_t extra = threads > 1 ? threads - 1 : 0;
@@ -48,6 +68,7 @@ void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
   }
   if (wake) start_.notify_all();
   drain(0);
+  spin_until([this] { return busy_.load(std::memory_order_acquire) == 0; });
   std::unique_lock lock(mutex_);
   done_.wait(lock, [this] { return busy_ == 0; });
   if (error_) {
@@ -61,6 +82,9 @@ void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
 void ThreadPool::worker_loop(std::size_t worker) {
   std::uint64_t seen = 0;
   for (;;) {
+    spin_until([&] {
+      return stop_.load(std::memory_order_acquire) || generation_.load(std::memory_order_acquire) != seen;
+    });
     {
       std::unique_lock lock(mutex_);
       start_.wait(lock, [&] { return stop_ || generation_ != seen; });
