@@ -1,0 +1,387 @@
+// The daemon's configuration: YAML file and flag parsing on top of the built-in defaults.
+#include "config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string_view>
+
+namespace rbdgrad::server {
+namespace {
+
+constexpr int64_t kMaxInt32 = 2147483647;
+
+// every error names the file, the key path and, when known, the line
+class Parser {
+ public:
+  explicit Parser(std::string name) : name_(std::move(name)) {}
+
+  Status error_at(const std::string& key, const YAML::Node& node, const std::string& what) const {
+    std::ostringstream os;
+    os << name_ << ": key '" << key << "'";
+    if (!node.Mark().is_null()) os << " (line " << node.Mark().line + 1 << ")";
+    os << ": " << what;
+    return invalid_argument(os.str());
+  }
+
+  // unknown keys are errors: a typo must not silently fall back to a default
+  Status check_keys(const std::string& prefix, const YAML::Node& map,
+                    std::initializer_list<std::string_view> known) const {
+    for (const auto& kv : map) {
+      const std::string key = kv.first.Scalar();
+      bool found = false;
+      for (std::string_view k : known) found = found || key == k;
+      if (!found) {
+        std::ostringstream os;
+        os << name_ << ": unknown key '" << (prefix.empty() ? key : prefix + "." + key) << "'";
+        if (!kv.first.Mark().is_null()) os << " (line " << kv.first.Mark().line + 1 << ")";
+        return invalid_argument(os.str());
+      }
+    }
+    return Status::ok();
+  }
+
+  Status require_map(const std::string& key, const YAML::Node& node) const {
+    if (!node.IsMap()) return error_at(key, node, "expected a mapping");
+    return Status::ok();
+  }
+
+  // a null value ("tcp:" or "tcp: ~") reads as the empty string, i.e. "none"
+  Status get_string(const std::string& key, const YAML::Node& node, std::string& out) const {
+    if (node.IsNull()) {
+      out.clear();
+      return Status::ok();
+    }
+    if (!node.IsScalar()) return error_at(key, node, "expected a string");
+    out = node.Scalar();
+    return Status::ok();
+  }
+
+  Status get_int(const std::string& key, const YAML::Node& node, int64_t lo, int64_t hi,
+                 int64_t& out) const {
+    if (!node.IsScalar()) return error_at(key, node, "expected an integer");
+    const std::string& s = node.Scalar();
+    int64_t v = 0;
+    auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec == std::errc::result_out_of_range) {
+      return error_at(key, node, "value '" + s + "' is out of range");
+    }
+    if (ec != std::errc() || end != s.data() + s.size() || s.empty()) {
+      return error_at(key, node, "expected an integer, got '" + s + "'");
+    }
+    if (v < lo || v > hi) {
+      return error_at(key, node, "value " + s + " is outside [" + std::to_string(lo) + ", " +
+                                     std::to_string(hi) + "]");
+    }
+    out = v;
+    return Status::ok();
+  }
+
+  Status get_double(const std::string& key, const YAML::Node& node, double& out) const {
+    if (!node.IsScalar()) return error_at(key, node, "expected a number");
+    const std::string& s = node.Scalar();
+    char* end = nullptr;
+    out = std::strtod(s.c_str(), &end);
+    if (s.empty() || end != s.c_str() + s.size()) {
+      return error_at(key, node, "expected a number, got '" + s + "'");
+    }
+    return Status::ok();
+  }
+
+  Status parse_listen(const YAML::Node& node, ListenConfig& out) const {
+    if (Status s = require_map("listen", node); !s) return s;
+    if (Status s = check_keys("listen", node, {"tcp", "unix_socket"}); !s) return s;
+    if (node["tcp"]) {
+      if (Status s = get_string("listen.tcp", node["tcp"], out.tcp); !s) return s;
+    }
+    if (node["unix_socket"]) {
+      if (Status s = get_string("listen.unix_socket", node["unix_socket"], out.unix_socket); !s) {
+        return s;
+      }
+    }
+    return Status::ok();
+  }
+
+  Status parse_model(const std::string& key, const YAML::Node& node, ModelConfig& out) const {
+    if (Status s = require_map(key, node); !s) return s;
+    if (Status s = check_keys(key, node, {"name", "urdf", "embedded", "gravity"}); !s) return s;
+    if (!node["name"]) return error_at(key, node, "a model needs a 'name'");
+    if (Status s = get_string(key + ".name", node["name"], out.name); !s) return s;
+    if (out.name.empty()) return error_at(key + ".name", node["name"], "must not be empty");
+    if (node["urdf"]) {
+      if (Status s = get_string(key + ".urdf", node["urdf"], out.urdf); !s) return s;
+    }
+    if (node["embedded"]) {
+      if (Status s = get_string(key + ".embedded", node["embedded"], out.embedded); !s) return s;
+    }
+    // one source per model: which one would win is not obvious to the reader of the file
+    if (out.urdf.empty() == out.embedded.empty()) {
+      return error_at(key, node, "model '" + out.name + "' needs exactly one of 'urdf' or 'embedded'");
+    }
+    const YAML::Node g = node["gravity"];
+    if (g && !g.IsNull()) {
+      if (!g.IsSequence() || g.size() != 3) {
+        return error_at(key + ".gravity", g, "expected a list of 3 numbers [gx, gy, gz]");
+      }
+      std::array<double, 3> v{};
+      for (std::size_t i = 0; i < 3; ++i) {
+        const std::string k = key + ".gravity[" + std::to_string(i) + "]";
+        if (Status s = get_double(k, g[i], v[i]); !s) return s;
+      }
+      out.gravity = v;
+    }
+    return Status::ok();
+  }
+
+  Status parse_models(const YAML::Node& node, std::vector<ModelConfig>& out) const {
+    // the file's list replaces the default list, it does not add to it
+    out.clear();
+    if (node.IsNull()) return Status::ok();
+    if (!node.IsSequence()) return error_at("models", node, "expected a list");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string key = "models[" + std::to_string(i) + "]";
+      ModelConfig m;
+      if (Status s = parse_model(key, node[i], m); !s) return s;
+      if (!names.insert(m.name).second) {
+        return error_at(key + ".name", node[i]["name"], "duplicate model name '" + m.name + "'");
+      }
+      out.push_back(std::move(m));
+    }
+    return Status::ok();
+  }
+
+  Status parse_plugins(const YAML::Node& node, std::vector<PluginConfig>& out) const {
+    out.clear();
+    if (node.IsNull()) return Status::ok();
+    if (!node.IsSequence()) return error_at("plugins", node, "expected a list");
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string key = "plugins[" + std::to_string(i) + "]";
+      const YAML::Node p = node[i];
+      if (Status s = require_map(key, p); !s) return s;
+      if (Status s = check_keys(key, p, {"path", "options"}); !s) return s;
+      PluginConfig plugin;
+      if (!p["path"]) return error_at(key, p, "a plugin needs a 'path'");
+      if (Status s = get_string(key + ".path", p["path"], plugin.path); !s) return s;
+      if (plugin.path.empty()) return error_at(key + ".path", p["path"], "must not be empty");
+      const YAML::Node opts = p["options"];
+      if (opts && !opts.IsNull()) {
+        if (!opts.IsMap()) return error_at(key + ".options", opts, "expected a string mapping");
+        for (const auto& kv : opts) {
+          const std::string k = kv.first.Scalar();
+          std::string v;
+          if (Status s = get_string(key + ".options." + k, kv.second, v); !s) return s;
+          plugin.options[k] = v;
+        }
+      }
+      out.push_back(std::move(plugin));
+    }
+    return Status::ok();
+  }
+
+  Status parse_limits(const YAML::Node& node, LimitsConfig& out) const {
+    if (Status s = require_map("limits", node); !s) return s;
+    if (Status s = check_keys("limits", node,
+                              {"max_states_per_request", "max_message_bytes",
+                               "max_concurrent_requests", "max_queue_delay_us"});
+        !s) {
+      return s;
+    }
+    struct Field {
+      const char* name;
+      int64_t lo, hi;
+      int64_t* dst;
+    };
+    const Field fields[] = {
+        {"max_states_per_request", 1, kMaxInt32, &out.max_states_per_request},
+        {"max_message_bytes", 1, kMaxInt32, &out.max_message_bytes},
+        {"max_concurrent_requests", 1, kMaxInt32, &out.max_concurrent_requests},
+        {"max_queue_delay_us", 0, 10'000'000, &out.max_queue_delay_us},
+    };
+    for (const Field& f : fields) {
+      if (!node[f.name]) continue;
+      if (Status s = get_int(std::string("limits.") + f.name, node[f.name], f.lo, f.hi, *f.dst); !s) {
+        return s;
+      }
+    }
+    return Status::ok();
+  }
+
+  Status parse_root(const YAML::Node& root, ServerConfig& out) const {
+    // an empty file keeps every default
+    if (root.IsNull()) return Status::ok();
+    if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
+    if (Status s = check_keys("", root,
+                              {"listen", "models", "plugins", "workers", "limits", "log_level"});
+        !s) {
+      return s;
+    }
+    if (root["listen"]) {
+      if (Status s = parse_listen(root["listen"], out.listen); !s) return s;
+    }
+    if (root["models"]) {
+      if (Status s = parse_models(root["models"], out.models); !s) return s;
+    }
+    if (root["plugins"]) {
+      if (Status s = parse_plugins(root["plugins"], out.plugins); !s) return s;
+    }
+    if (root["workers"]) {
+      if (Status s = get_int("workers", root["workers"], 0, 4096, out.workers); !s) return s;
+    }
+    if (root["limits"]) {
+      if (Status s = parse_limits(root["limits"], out.limits); !s) return s;
+    }
+    if (root["log_level"]) {
+      std::string lvl;
+      if (Status s = get_string("log_level", root["log_level"], lvl); !s) return s;
+      if (!parse_log_level(lvl, out.log_level)) {
+        return error_at("log_level", root["log_level"],
+                        "expected one of trace, debug, info, warn, error; got '" + lvl + "'");
+      }
+    }
+    return Status::ok();
+  }
+
+ private:
+  std::string name_;
+};
+
+Status parse_flag_int(const std::string& flag, const std::string& value, int64_t lo, int64_t hi,
+                      int64_t& out) {
+  int64_t v = 0;
+  auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), v);
+  if (ec != std::errc() || end != value.data() + value.size() || value.empty()) {
+    return invalid_argument(flag + ": expected an integer, got '" + value + "'");
+  }
+  if (v < lo || v > hi) {
+    return invalid_argument(flag + ": value " + value + " is outside [" + std::to_string(lo) +
+                            ", " + std::to_string(hi) + "]");
+  }
+  out = v;
+  return Status::ok();
+}
+
+}  // namespace
+
+const char* log_level_name(LogLevel level) noexcept {
+  switch (level) {
+    case LogLevel::kTrace: return "trace";
+    case LogLevel::kDebug: return "debug";
+    case LogLevel::kInfo: return "info";
+    case LogLevel::kWarn: return "warn";
+    case LogLevel::kError: return "error";
+  }
+  return "unknown";
+}
+
+bool parse_log_level(const std::string& name, LogLevel& out) {
+  for (LogLevel l : {LogLevel::kTrace, LogLevel::kDebug, LogLevel::kInfo, LogLevel::kWarn,
+                     LogLevel::kError}) {
+    if (name == log_level_name(l)) {
+      out = l;
+      return true;
+    }
+  }
+  return false;
+}
+
+Status parse_config(const std::string& yaml_text, const std::string& name_for_messages,
+                    ServerConfig& out) {
+  // yaml-cpp reports syntax errors by throwing: stop them here, at our API boundary
+  try {
+    const YAML::Node root = YAML::Load(yaml_text);
+    return Parser(name_for_messages).parse_root(root, out);
+  } catch (const YAML::Exception& e) {
+    std::string msg = name_for_messages;
+    if (!e.mark.is_null()) msg += ":" + std::to_string(e.mark.line + 1);
+    return invalid_argument(msg + ": " + e.msg);
+  } catch (const std::exception& e) {
+    return invalid_argument(name_for_messages + ": " + e.what());
+  }
+}
+
+Status load_config_file(const std::string& path, ServerConfig& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return not_found("cannot read config file '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_config(text.str(), path, out);
+}
+
+Status apply_flag_overrides(const std::vector<std::string>& args, ServerConfig& cfg) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    std::string flag = args[i];
+    std::string value;
+    bool has_value = false;
+    // "--flag=value" and "--flag value" mean the same
+    if (const auto eq = flag.find('='); flag.rfind("--", 0) == 0 && eq != std::string::npos) {
+      value = flag.substr(eq + 1);
+      flag.resize(eq);
+      has_value = true;
+    }
+    static const std::set<std::string> kKnown = {"--listen", "--unix-socket", "--workers",
+                                                 "--log-level", "--max-states"};
+    if (kKnown.count(flag) == 0) return invalid_argument("unknown flag '" + flag + "'");
+    if (!has_value) {
+      if (i + 1 >= args.size()) return invalid_argument(flag + ": missing value");
+      value = args[++i];
+    }
+    if (flag == "--listen") {
+      cfg.listen.tcp = value;
+    } else if (flag == "--unix-socket") {
+      cfg.listen.unix_socket = value;
+    } else if (flag == "--workers") {
+      if (Status s = parse_flag_int(flag, value, 0, 4096, cfg.workers); !s) return s;
+    } else if (flag == "--log-level") {
+      if (!parse_log_level(value, cfg.log_level)) {
+        return invalid_argument(flag + ": expected one of trace, debug, info, warn, error; got '" +
+                                value + "'");
+      }
+    } else if (flag == "--max-states") {
+      if (Status s = parse_flag_int(flag, value, 1, kMaxInt32, cfg.limits.max_states_per_request);
+          !s) {
+        return s;
+      }
+    }
+  }
+  return Status::ok();
+}
+
+std::string describe(const ServerConfig& cfg) {
+  std::ostringstream os;
+  os << "listen: tcp " << (cfg.listen.tcp.empty() ? "(off)" : cfg.listen.tcp) << ", unix "
+     << (cfg.listen.unix_socket.empty() ? "(off)" : cfg.listen.unix_socket) << "\n";
+  os << "models (" << cfg.models.size() << "):\n";
+  for (const ModelConfig& m : cfg.models) {
+    os << "  " << m.name << ": " << (m.urdf.empty() ? "embedded " + m.embedded : "urdf " + m.urdf);
+    if (m.gravity) {
+      os << ", gravity [" << (*m.gravity)[0] << ", " << (*m.gravity)[1] << ", " << (*m.gravity)[2]
+         << "]";
+    }
+    os << "\n";
+  }
+  os << "plugins (" << cfg.plugins.size() << ", plus the built-in CPU backend):\n";
+  for (const PluginConfig& p : cfg.plugins) {
+    os << "  " << p.path;
+    for (const auto& [k, v] : p.options) os << " " << k << "=" << v;
+    os << "\n";
+  }
+  os << "workers: ";
+  if (cfg.workers == 0) {
+    os << "0 (hardware concurrency)\n";
+  } else {
+    os << cfg.workers << "\n";
+  }
+  os << "limits: max_states_per_request " << cfg.limits.max_states_per_request
+     << ", max_message_bytes " << cfg.limits.max_message_bytes << ", max_concurrent_requests "
+     << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "
+     << cfg.limits.max_queue_delay_us << "\n";
+  os << "log_level: " << log_level_name(cfg.log_level) << "\n";
+  return os.str();
+}
+
+}  // namespace rbdgrad::server

@@ -1,0 +1,110 @@
+// The daemon's configuration: built-in defaults, overridden by a YAML file
+// (configs/default.yaml is the reference), then by command-line flags.
+// Parsing reports errors as Status values naming the key path and line; nothing throws.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rbdgrad/status.hpp"
+
+namespace rbdgrad::server {
+
+// Where the daemon accepts connections. At least one should be set; the daemon checks that.
+struct ListenConfig {
+  // TCP address as "host:port". Default "127.0.0.1:50051" (loopback only). Empty = no TCP.
+  std::string tcp = "127.0.0.1:50051";
+  // Unix domain socket path. Default "/tmp/rbdgradd.sock". Empty = no Unix socket.
+  std::string unix_socket = "/tmp/rbdgradd.sock";
+
+  bool operator==(const ListenConfig&) const = default;
+};
+
+// One robot model served by the daemon. Exactly one of `urdf` / `embedded` is non-empty.
+struct ModelConfig {
+  // Name clients use to address the model. Required, unique. No default.
+  std::string name;
+  // Path of a URDF file. Default empty (use `embedded`).
+  std::string urdf;
+  // Name of a robot compiled into the daemon ("iiwa14", "panda", ...). Default empty.
+  // The daemon checks the name against the embedded robots when it loads models.
+  std::string embedded;
+  // Gravity [gx, gy, gz] in m/s^2. Default unset = the model's own (0, 0, -9.81).
+  std::optional<std::array<double, 3>> gravity;
+
+  bool operator==(const ModelConfig&) const = default;
+};
+
+// A backend plugin to dlopen(). The CPU backend needs no entry: the daemon looks it up
+// next to its own binary.
+struct PluginConfig {
+  // Path of the shared object. Required. No default.
+  std::string path;
+  // Options handed to the plugin at initialisation, uninterpreted here. Default empty.
+  std::map<std::string, std::string> options;
+
+  bool operator==(const PluginConfig&) const = default;
+};
+
+// Admission limits: requests beyond them are rejected instead of queued without bound.
+struct LimitsConfig {
+  // Most states (batch columns) one request may carry. Default 65536. Range [1, 2^31-1].
+  int64_t max_states_per_request = 65536;
+  // Largest gRPC message accepted or sent, in bytes. Default 256 MiB. Range [1, 2^31-1].
+  int64_t max_message_bytes = int64_t{256} << 20;
+  // Requests in flight at once; more are rejected UNAVAILABLE. Default 256. Range [1, 2^31-1].
+  int64_t max_concurrent_requests = 256;
+  // How long the scheduler may hold a request to batch it, in microseconds.
+  // Default 0 (no batching delay). Range [0, 10^7].
+  int64_t max_queue_delay_us = 0;
+
+  bool operator==(const LimitsConfig&) const = default;
+};
+
+enum class LogLevel { kTrace, kDebug, kInfo, kWarn, kError };
+
+// "trace", "debug", "info", "warn", "error".
+const char* log_level_name(LogLevel level) noexcept;
+// Fills `out` from one of the names above; false for anything else.
+bool parse_log_level(const std::string& name, LogLevel& out);
+
+struct ServerConfig {
+  // Addresses to listen on. Default: TCP 127.0.0.1:50051 and /tmp/rbdgradd.sock.
+  ListenConfig listen;
+  // Models to load at start-up. Default: one model "iiwa14" from the embedded iiwa14.
+  std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt}};
+  // Extra backend plugins. Default empty (the CPU backend is always found next to the binary).
+  std::vector<PluginConfig> plugins;
+  // Threads serving requests. Default 0 = std::thread::hardware_concurrency(). Range [0, 4096].
+  int64_t workers = 0;
+  // Admission limits (see LimitsConfig).
+  LimitsConfig limits;
+  // Least severe log level written. Default info.
+  LogLevel log_level = LogLevel::kInfo;
+
+  bool operator==(const ServerConfig&) const = default;
+};
+
+// Reads the YAML file at `path` and applies it on top of `out`'s current values
+// (pass a default-constructed ServerConfig to start from the defaults).
+// not_found if the file cannot be read; invalid_argument naming key and line otherwise.
+Status load_config_file(const std::string& path, ServerConfig& out);
+
+// As load_config_file, from text; `name_for_messages` prefixes every error ("rbdgradd.yaml").
+// Unknown keys, wrong types and out-of-range values are errors; `out` is unspecified on error.
+Status parse_config(const std::string& yaml_text, const std::string& name_for_messages,
+                    ServerConfig& out);
+
+// Applies command-line flags on top of `cfg` (flags win over the file):
+// --listen <host:port>, --unix-socket <path>, --workers <n>, --log-level <lvl>, --max-states <n>.
+// Both "--flag value" and "--flag=value" are accepted. Unknown flags are invalid_argument.
+Status apply_flag_overrides(const std::vector<std::string>& args, ServerConfig& cfg);
+
+// Multi-line human summary for the start-up log.
+std::string describe(const ServerConfig& cfg);
+
+}  // namespace rbdgrad::server

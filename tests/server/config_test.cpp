@@ -1,0 +1,212 @@
+// Tests for server/config.cpp.
+#include "config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+namespace rbdgrad::server {
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+TEST(ServerConfigTest, DefaultsAreTheDocumentedValues) {
+  const ServerConfig cfg;
+  EXPECT_EQ(cfg.listen.tcp, "127.0.0.1:50051");
+  EXPECT_EQ(cfg.listen.unix_socket, "/tmp/rbdgradd.sock");
+  ASSERT_EQ(cfg.models.size(), 1u);
+  EXPECT_EQ(cfg.models[0].name, "iiwa14");
+  EXPECT_EQ(cfg.models[0].embedded, "iiwa14");
+  EXPECT_TRUE(cfg.models[0].urdf.empty());
+  EXPECT_FALSE(cfg.models[0].gravity.has_value());
+  EXPECT_TRUE(cfg.plugins.empty());
+  EXPECT_EQ(cfg.workers, 0);
+  EXPECT_EQ(cfg.limits.max_states_per_request, 65536);
+  EXPECT_EQ(cfg.limits.max_message_bytes, 256 * 1024 * 1024);
+  EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
+  EXPECT_EQ(cfg.limits.max_queue_delay_us, 0);
+  EXPECT_EQ(cfg.log_level, LogLevel::kInfo);
+}
+
+TEST(ServerConfigTest, DefaultYamlEqualsBuiltInDefaults) {
+  const std::string text = read_text(RBDGRAD_DEFAULT_CONFIG_PATH);
+  ASSERT_FALSE(text.empty());
+  // start from a config that differs everywhere, so every field must come from the file
+  ServerConfig cfg;
+  cfg.listen = {"x:1", "/y"};
+  cfg.models = {};
+  cfg.plugins = {PluginConfig{"/p.so", {}}};
+  cfg.workers = 7;
+  cfg.limits = {1, 2, 3, 4};
+  cfg.log_level = LogLevel::kError;
+  const Status s = parse_config(text, "default.yaml", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(cfg, ServerConfig{});
+}
+
+TEST(ServerConfigTest, LoadConfigFileReadsAndReportsMissingFile) {
+  ServerConfig cfg;
+  EXPECT_TRUE(load_config_file(RBDGRAD_DEFAULT_CONFIG_PATH, cfg).is_ok());
+  const Status s = load_config_file("/nonexistent/rbdgradd.yaml", cfg);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+}
+
+TEST(ServerConfigTest, EmptyFileKeepsDefaults) {
+  ServerConfig cfg;
+  ASSERT_TRUE(parse_config("", "empty.yaml", cfg).is_ok());
+  EXPECT_EQ(cfg, ServerConfig{});
+}
+
+TEST(ServerConfigTest, OverridesListen) {
+  ServerConfig cfg;
+  const Status s = parse_config("listen:\n  tcp: \"0.0.0.0:6000\"\n  unix_socket: \"\"\n", "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(cfg.listen.tcp, "0.0.0.0:6000");
+  EXPECT_TRUE(cfg.listen.unix_socket.empty());
+}
+
+TEST(ServerConfigTest, OverridesModelsReplacingTheDefaultList) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "models:\n"
+      "  - name: arm\n"
+      "    urdf: /robots/arm.urdf\n"
+      "    gravity: [0, 0, -1.62]\n"
+      "  - name: panda\n"
+      "    embedded: panda\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(cfg.models.size(), 2u);
+  EXPECT_EQ(cfg.models[0].name, "arm");
+  EXPECT_EQ(cfg.models[0].urdf, "/robots/arm.urdf");
+  ASSERT_TRUE(cfg.models[0].gravity.has_value());
+  EXPECT_DOUBLE_EQ((*cfg.models[0].gravity)[2], -1.62);
+  EXPECT_EQ(cfg.models[1].embedded, "panda");
+  EXPECT_FALSE(cfg.models[1].gravity.has_value());
+}
+
+TEST(ServerConfigTest, OverridesPlugins) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "plugins:\n"
+      "  - path: /opt/rbdgrad/libcuda_backend.so\n"
+      "    options: {device: \"1\", streams: \"4\"}\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(cfg.plugins.size(), 1u);
+  EXPECT_EQ(cfg.plugins[0].path, "/opt/rbdgrad/libcuda_backend.so");
+  EXPECT_EQ(cfg.plugins[0].options.at("device"), "1");
+  EXPECT_EQ(cfg.plugins[0].options.at("streams"), "4");
+}
+
+TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "workers: 12\n"
+      "limits:\n"
+      "  max_states_per_request: 1024\n"
+      "  max_queue_delay_us: 500\n"
+      "log_level: debug\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(cfg.workers, 12);
+  EXPECT_EQ(cfg.limits.max_states_per_request, 1024);
+  EXPECT_EQ(cfg.limits.max_queue_delay_us, 500);
+  // keys the file leaves out keep their defaults
+  EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
+  EXPECT_EQ(cfg.listen, ListenConfig{});
+  EXPECT_EQ(cfg.log_level, LogLevel::kDebug);
+}
+
+TEST(ServerConfigTest, UnknownKeyIsNamedWithItsPath) {
+  ServerConfig cfg;
+  const Status s = parse_config("limits:\n  max_state: 5\n", "rbdgradd.yaml", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("rbdgradd.yaml: unknown key 'limits.max_state'"), std::string::npos)
+      << s.message();
+
+  const Status top = parse_config("wokers: 3\n", "rbdgradd.yaml", cfg);
+  EXPECT_NE(top.message().find("unknown key 'wokers'"), std::string::npos) << top.message();
+}
+
+TEST(ServerConfigTest, WrongTypeNamesKeyAndLine) {
+  ServerConfig cfg;
+  const Status s = parse_config("log_level: info\nworkers: many\n", "rbdgradd.yaml", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_NE(s.message().find("'workers'"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("line 2"), std::string::npos) << s.message();
+}
+
+TEST(ServerConfigTest, OutOfRangeNamesKeyAndLine) {
+  ServerConfig cfg;
+  const Status s =
+      parse_config("limits:\n  max_concurrent_requests: 0\n", "rbdgradd.yaml", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_NE(s.message().find("'limits.max_concurrent_requests'"), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("line 2"), std::string::npos) << s.message();
+
+  const Status lvl = parse_config("log_level: loud\n", "rbdgradd.yaml", cfg);
+  EXPECT_NE(lvl.message().find("'log_level'"), std::string::npos) << lvl.message();
+}
+
+TEST(ServerConfigTest, ModelNeedsExactlyOneSource) {
+  ServerConfig cfg;
+  const Status both = parse_config(
+      "models:\n  - name: a\n    urdf: /a.urdf\n    embedded: iiwa14\n", "t", cfg);
+  ASSERT_FALSE(both.is_ok());
+  EXPECT_NE(both.message().find("exactly one of"), std::string::npos) << both.message();
+
+  const Status neither = parse_config("models:\n  - name: a\n", "t", cfg);
+  EXPECT_FALSE(neither.is_ok());
+}
+
+TEST(ServerConfigTest, SyntaxErrorIsAStatusNotAnException) {
+  ServerConfig cfg;
+  const Status s = parse_config("listen: [unclosed\n", "bad.yaml", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_EQ(s.message().rfind("bad.yaml", 0), 0u) << s.message();
+}
+
+TEST(ServerConfigTest, FlagsOverrideTheFile) {
+  ServerConfig cfg;
+  ASSERT_TRUE(parse_config("workers: 2\nlog_level: warn\n", "t", cfg).is_ok());
+  const Status s = apply_flag_overrides({"--listen", "0.0.0.0:7000", "--unix-socket=", "--workers",
+                                         "8", "--log-level=trace", "--max-states", "99"},
+                                        cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(cfg.listen.tcp, "0.0.0.0:7000");
+  EXPECT_TRUE(cfg.listen.unix_socket.empty());
+  EXPECT_EQ(cfg.workers, 8);
+  EXPECT_EQ(cfg.log_level, LogLevel::kTrace);
+  EXPECT_EQ(cfg.limits.max_states_per_request, 99);
+}
+
+TEST(ServerConfigTest, UnknownOrBadFlagIsAnError) {
+  ServerConfig cfg;
+  const Status unknown = apply_flag_overrides({"--port", "1"}, cfg);
+  ASSERT_FALSE(unknown.is_ok());
+  EXPECT_NE(unknown.message().find("--port"), std::string::npos) << unknown.message();
+  EXPECT_FALSE(apply_flag_overrides({"--workers"}, cfg).is_ok());
+  EXPECT_FALSE(apply_flag_overrides({"--workers", "x"}, cfg).is_ok());
+  EXPECT_FALSE(apply_flag_overrides({"--log-level", "loud"}, cfg).is_ok());
+}
+
+TEST(ServerConfigTest, DescribeMentionsListenAddressAndModels) {
+  ServerConfig cfg;
+  cfg.listen.tcp = "10.1.2.3:4567";
+  const std::string text = describe(cfg);
+  EXPECT_NE(text.find("10.1.2.3:4567"), std::string::npos) << text;
+  EXPECT_NE(text.find("/tmp/rbdgradd.sock"), std::string::npos) << text;
+  EXPECT_NE(text.find("iiwa14"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace rbdgrad::server
