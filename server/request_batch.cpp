@@ -8,6 +8,8 @@
 #include <sstream>
 #include <string_view>
 
+#include "common/batch_view.hpp"  // output_pointer: one mapping of output flags to batch fields
+
 namespace rbdgrad::server {
 namespace {
 
@@ -140,21 +142,6 @@ Status convert_field(const std::string& pre, const InputField& f, uint64_t n, in
   }
   present = true;
   return Status::ok();
-}
-
-// the compute buffer of one output inside a batch
-void* output_pointer(const rbdgrad_batch& b, uint32_t flag) {
-  switch (flag) {
-    case RBDGRAD_OUTPUT_QDD: return b.qdd;
-    case RBDGRAD_OUTPUT_MINV: return b.minv_out;
-    case RBDGRAD_OUTPUT_DQDD_DQ: return b.dqdd_dq;
-    case RBDGRAD_OUTPUT_DQDD_DQD: return b.dqdd_dqd;
-    case RBDGRAD_OUTPUT_TAU: return b.tau;
-    case RBDGRAD_OUTPUT_DTAU_DQ: return b.dtau_dq;
-    case RBDGRAD_OUTPUT_DTAU_DQD: return b.dtau_dqd;
-    case RBDGRAD_OUTPUT_M: return b.m;
-    default: return nullptr;
-  }
 }
 
 v1::Tensor* response_tensor(v1::ComputeResponse& r, v1::Output o) {
@@ -295,7 +282,7 @@ void RequestBatch::to_response(v1::ComputeResponse& resp, v1::ScalarType output_
 
   for (const OutputSpec& spec : kOutputs) {
     if (!(batch_.outputs & spec.flag)) continue;
-    const auto* src = static_cast<const std::byte*>(output_pointer(batch_, spec.flag));
+    const auto* src = static_cast<const std::byte*>(plugin::output_pointer(batch_, spec.flag));
     const uint64_t count = spec.matrix ? vec * static_cast<uint64_t>(nv_) : vec;
     v1::Tensor* t = response_tensor(resp, spec.output);
     t->set_type(f32 ? v1::SCALAR_TYPE_F32 : v1::SCALAR_TYPE_F64);
