@@ -51,8 +51,7 @@ Status status_for(uint32_t code, std::string message) {
     case RBDGRAD_ERROR_INVALID_ARGUMENT: return invalid_argument(std::move(message));
     case RBDGRAD_ERROR_UNSUPPORTED: return unimplemented(std::move(message));
     case RBDGRAD_ERROR_NUMERICAL: return out_of_range(std::move(message));
-    // core has no kUnavailable: a missing or busy device is the closest to a failed precondition
-    case RBDGRAD_ERROR_UNAVAILABLE: return failed_precondition(std::move(message));
+    case RBDGRAD_ERROR_UNAVAILABLE: return unavailable(std::move(message));
     case RBDGRAD_ERROR_INTERNAL: return {StatusCode::kInternal, std::move(message)};
   }
   // a code this host does not know is a plugin bug; keep the number for whoever reads the log

@@ -76,7 +76,7 @@ class Plugin {
   const std::string& path() const noexcept { return path_; }
 
   /// Whether this backend can run n states of `model` in `precision` with `outputs`
-  /// (rbdgrad_output flags): ok, or why not (usually kUnimplemented or kFailedPrecondition).
+  /// (rbdgrad_output flags): ok, or why not (usually kUnimplemented or kUnavailable).
   Status can_run(const rbdgrad_model_desc& model, rbdgrad_precision precision, uint32_t outputs,
                  uint64_t n) const;
 

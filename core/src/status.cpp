@@ -10,6 +10,7 @@ const char* status_code_name(StatusCode code) noexcept {
     case StatusCode::kOutOfRange: return "out_of_range";
     case StatusCode::kNotFound: return "not_found";
     case StatusCode::kUnimplemented: return "unimplemented";
+    case StatusCode::kUnavailable: return "unavailable";
     case StatusCode::kInternal: return "internal";
   }
   return "unknown";

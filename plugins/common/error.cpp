@@ -36,6 +36,7 @@ rbdgrad_error_code error_code_from_status(StatusCode code) noexcept {
     case StatusCode::kOutOfRange:
     case StatusCode::kFailedPrecondition: return RBDGRAD_ERROR_NUMERICAL;
     case StatusCode::kUnimplemented: return RBDGRAD_ERROR_UNSUPPORTED;
+    case StatusCode::kUnavailable: return RBDGRAD_ERROR_UNAVAILABLE;
     default: return RBDGRAD_ERROR_INTERNAL;
   }
 }

@@ -145,7 +145,7 @@ TEST(Plugin, MapsEveryPluginErrorCodeAndFreesTheError) {
       {RBDGRAD_ERROR_INVALID_ARGUMENT, StatusCode::kInvalidArgument},
       {RBDGRAD_ERROR_UNSUPPORTED, StatusCode::kUnimplemented},
       {RBDGRAD_ERROR_NUMERICAL, StatusCode::kOutOfRange},
-      {RBDGRAD_ERROR_UNAVAILABLE, StatusCode::kFailedPrecondition},
+      {RBDGRAD_ERROR_UNAVAILABLE, StatusCode::kUnavailable},
       {RBDGRAD_ERROR_INTERNAL, StatusCode::kInternal},
       {6, StatusCode::kInternal},
   };

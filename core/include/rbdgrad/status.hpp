@@ -14,6 +14,7 @@ enum class StatusCode {
   kOutOfRange,        // fixed-point overflow or a value outside what a precision represents
   kNotFound,          // a file or a named item does not exist
   kUnimplemented,     // a feature that is not supported (yet)
+  kUnavailable,       // a backend or device that is missing, failed to load or is not ready
   kInternal,          // a bug
 };
 
@@ -42,5 +43,6 @@ inline Status failed_precondition(std::string m) { return {StatusCode::kFailedPr
 inline Status out_of_range(std::string m) { return {StatusCode::kOutOfRange, std::move(m)}; }
 inline Status not_found(std::string m) { return {StatusCode::kNotFound, std::move(m)}; }
 inline Status unimplemented(std::string m) { return {StatusCode::kUnimplemented, std::move(m)}; }
+inline Status unavailable(std::string m) { return {StatusCode::kUnavailable, std::move(m)}; }
 
 }  // namespace rbdgrad

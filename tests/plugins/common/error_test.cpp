@@ -13,6 +13,7 @@ TEST(PluginError, StatusCodesMapToAbiCodes) {
   EXPECT_EQ(error_code_from_status(StatusCode::kOutOfRange), RBDGRAD_ERROR_NUMERICAL);
   EXPECT_EQ(error_code_from_status(StatusCode::kFailedPrecondition), RBDGRAD_ERROR_NUMERICAL);
   EXPECT_EQ(error_code_from_status(StatusCode::kUnimplemented), RBDGRAD_ERROR_UNSUPPORTED);
+  EXPECT_EQ(error_code_from_status(StatusCode::kUnavailable), RBDGRAD_ERROR_UNAVAILABLE);
   EXPECT_EQ(error_code_from_status(StatusCode::kNotFound), RBDGRAD_ERROR_INTERNAL);
   EXPECT_EQ(error_code_from_status(StatusCode::kInternal), RBDGRAD_ERROR_INTERNAL);
 }
