@@ -13,3 +13,7 @@ if(RBDGRAD_NATIVE)
   target_compile_options(rbdgrad_arch INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-march=native>)
 endif()
 target_link_libraries(rbdgrad_options INTERFACE rbdgrad_arch)
+
+# Installed binaries and libraries find the project's shared libraries (librbdgrad_client,
+# librbdgrad_proto) in <prefix>/lib: from bin/ and from lib/ alike, $ORIGIN/../lib is that folder.
+set(CMAKE_INSTALL_RPATH "$ORIGIN/../lib")

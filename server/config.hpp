@@ -39,8 +39,10 @@ struct ModelConfig {
   bool operator==(const ModelConfig&) const = default;
 };
 
-// A backend plugin to dlopen(). The CPU backend needs no entry: the daemon looks it up
-// next to its own binary.
+// A backend plugin to dlopen(). The CPU backend needs no entry: the daemon looks it up next to its
+// own binary (<prefix>/lib/rbdgrad/librbdgrad_cpu.so installed, build/plugins/cpu in the build
+// tree) unless this list yields a plugin named "cpu". A plugin that fails to load is logged and
+// skipped, under a name taken from its file name (librbdgrad_cuda.so -> "cuda").
 struct PluginConfig {
   // Path of the shared object. Required. No default.
   std::string path;
@@ -56,10 +58,12 @@ struct LimitsConfig {
   int64_t max_states_per_request = 65536;
   // Largest gRPC message accepted or sent, in bytes. Default 256 MiB. Range [1, 2^31-1].
   int64_t max_message_bytes = int64_t{256} << 20;
-  // Requests in flight at once; more are rejected UNAVAILABLE. Default 256. Range [1, 2^31-1].
+  // Compute requests in flight at once (unary and streamed); more are rejected
+  // RESOURCE_EXHAUSTED. Default 256. Range [1, 2^31-1].
   int64_t max_concurrent_requests = 256;
   // How long the scheduler may hold a request to batch it, in microseconds.
-  // Default 0 (no batching delay). Range [0, 10^7].
+  // Default 0 (no batching delay). Range [0, 10^7]. Reserved: read but not used until the
+  // scheduler exists.
   int64_t max_queue_delay_us = 0;
 
   bool operator==(const LimitsConfig&) const = default;
@@ -79,7 +83,9 @@ struct ServerConfig {
   std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt}};
   // Extra backend plugins. Default empty (the CPU backend is always found next to the binary).
   std::vector<PluginConfig> plugins;
-  // Threads serving requests. Default 0 = std::thread::hardware_concurrency(). Range [0, 4096].
+  // Threads of the CPU backend's instance (its "threads" option, unless the CPU plugin's own
+  // options set it): one batch is split over them. Default 0 = std::thread::hardware_concurrency().
+  // Range [0, 4096].
   int64_t workers = 0;
   // Admission limits (see LimitsConfig).
   LimitsConfig limits;

@@ -1,38 +1,66 @@
-// rbdgradd, the rbdgrad daemon. Until the service lands (see the issues) it loads its model, reports
-// the in-process CPU backend ready, and waits for SIGINT/SIGTERM.
+// rbdgradd, the rbdgrad daemon: serves the Dynamics gRPC service (server/daemon.hpp) until
+// SIGINT/SIGTERM, then stops gracefully. Configuration: built-in defaults, then the YAML file of
+// --config (configs/default.yaml documents every field), then the flags.
 #include <pthread.h>
+#include <unistd.h>
 
 #include <csignal>
+#include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
 #include "args.hpp"
-#include "model_source.hpp"
+#include "config.hpp"
+#include "daemon.hpp"
 #include "rbdgrad/embedded_robots.hpp"
-#include "rbdgrad/model.hpp"
+#include "ready_file.hpp"
+
+#ifndef RBDGRAD_CPU_PLUGIN_INSTALL_REL
+#error "RBDGRAD_CPU_PLUGIN_INSTALL_REL must name the CPU plugin relative to the installed binary"
+#endif
+#ifndef RBDGRAD_CPU_PLUGIN_BUILD_REL
+#error "RBDGRAD_CPU_PLUGIN_BUILD_REL must name the CPU plugin relative to the binary in the build tree"
+#endif
 
 namespace {
 
+namespace server = rbdgrad::server;
+
 constexpr rbdgrad::cli::OptionSpec kOptions[] = {
-    {"model", "NAME|PATH", "embedded robot (hyq, iiwa14, panda, talos_reduced) or URDF file; default iiwa14"},
-    {"once", "", "load the model, log its summary and exit (a start-up check)"},
+    {"config", "FILE", "YAML configuration (configs/default.yaml documents every field); default: built-in defaults"},
+    {"listen", "HOST:PORT", "TCP address, overrides listen.tcp (port 0 = any free port; \"\" = no TCP)"},
+    {"unix-socket", "PATH", "Unix socket, overrides listen.unix_socket (\"\" = none)"},
+    {"workers", "N", "threads of the CPU backend (0 = hardware concurrency), overrides workers"},
+    {"max-states", "N", "most states per request, overrides limits.max_states_per_request"},
+    {"log-level", "LEVEL", "trace, debug, info, warn or error, overrides log_level"},
+    {"model", "NAME|PATH", "serve only this model: an embedded robot (hyq, iiwa14, panda, talos_reduced) or a URDF file"},
+    {"ready-file", "PATH", "once serving, write the bound addresses there (\"tcp HOST:PORT\", \"unix PATH\", one a line)"},
+    {"once", "", "load the models and backends, log them and exit (a start-up check)"},
     {"version", "", "print the version"},
     {"help", "", "show this help"},
 };
 
+// flags that server/config.hpp's apply_flag_overrides applies on top of the file
+constexpr const char* kConfigFlags[] = {"listen", "unix-socket", "workers", "max-states", "log-level"};
+
 void print_help(std::ostream& os) {
-  os << "usage: rbdgradd [--model NAME|PATH] [--once]\n\n"
-     << "The rbdgrad daemon (stub): loads the model and waits for SIGINT/SIGTERM.\n\noptions:\n"
+  os << "usage: rbdgradd [--config FILE] [options]\n\n"
+     << "The rbdgrad daemon: serves batched rigid-body dynamics and gradients over gRPC until\n"
+     << "SIGINT/SIGTERM. Flags override the configuration file.\n\noptions:\n"
      << rbdgrad::cli::format_options(kOptions);
 }
 
 // The stop signals are blocked from the start and taken with sigwait: no async-signal-safe handler
-// is needed, threads started later inherit the mask, and a signal during start-up is not lost (it
-// is taken once the daemon is ready, for a clean exit 0).
+// is needed, threads started later (gRPC's, the backends') inherit the mask, and a signal during
+// start-up is not lost (it is taken once the daemon serves, for a clean exit 0).
 sigset_t stop_signals() {
   sigset_t set;
   sigemptyset(&set);
@@ -45,6 +73,39 @@ int wait_for_stop_signal(const sigset_t& set) {
   int signal = 0;
   if (sigwait(&set, &signal) != 0) return -1;
   return signal;
+}
+
+// The built-in CPU backend: the installed layout (<prefix>/lib/rbdgrad next to <prefix>/bin), else
+// the build tree's (build/plugins/cpu next to build/server), both relative to this executable.
+std::string default_cpu_plugin_path() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return "";
+  const std::filesystem::path dir = exe.parent_path();
+  const std::filesystem::path installed = dir / RBDGRAD_CPU_PLUGIN_INSTALL_REL;
+  const std::filesystem::path built = dir / RBDGRAD_CPU_PLUGIN_BUILD_REL;
+  if (std::filesystem::exists(installed, ec)) return installed.lexically_normal().string();
+  if (std::filesystem::exists(built, ec)) return built.lexically_normal().string();
+  // neither: the load fails and the log names the place it should be
+  return installed.lexically_normal().string();
+}
+
+spdlog::level::level_enum spdlog_level(server::LogLevel level) {
+  switch (level) {
+    case server::LogLevel::kTrace: return spdlog::level::trace;
+    case server::LogLevel::kDebug: return spdlog::level::debug;
+    case server::LogLevel::kInfo: return spdlog::level::info;
+    case server::LogLevel::kWarn: return spdlog::level::warn;
+    case server::LogLevel::kError: return spdlog::level::err;
+  }
+  return spdlog::level::info;
+}
+
+// --model NAME|PATH: an embedded robot by its name, else a URDF file named after its stem
+server::ModelConfig model_from_flag(const std::string& spec) {
+  if (!rbdgrad::embedded_robot_urdf(spec).empty()) return {spec, "", spec, std::nullopt};
+  std::string name = std::filesystem::path(spec).stem().string();
+  return {name.empty() ? spec : name, spec, "", std::nullopt};
 }
 
 }  // namespace
@@ -67,20 +128,73 @@ int main(int argc, char** argv) {
     return 0;
   }
 
+  // defaults, then the file, then the flags
+  server::ServerConfig config;
+  std::string source = "built-in defaults";
+  if (const std::string* path = args.value("config")) {
+    if (rbdgrad::Status s = server::load_config_file(*path, config); !s) {
+      std::cerr << "rbdgradd: " << s.message() << "\n";
+      return 1;
+    }
+    source = "file " + *path;
+  }
+  std::vector<std::string> overrides;
+  for (const char* flag : kConfigFlags) {
+    if (const std::string* value = args.value(flag)) {
+      overrides.push_back(std::string("--") + flag);
+      overrides.push_back(*value);
+    }
+  }
+  if (rbdgrad::Status s = server::apply_flag_overrides(overrides, config); !s) {
+    std::cerr << "rbdgradd: " << s.message() << "\n";
+    print_help(std::cerr);
+    return 2;
+  }
+  if (const std::string* spec = args.value("model")) {
+    config.models = {model_from_flag(*spec)};
+    overrides.push_back("--model");
+    overrides.push_back(*spec);
+  }
+  spdlog::set_level(spdlog_level(config.log_level));
+
   spdlog::info("rbdgradd {} starting", RBDGRAD_VERSION);
-  const std::string spec = args.value_or("model", rbdgrad::kDefaultRobot);
-  rbdgrad::Model model;
-  if (rbdgrad::Status st = rbdgrad::cli::load_model(spec, std::nullopt, model); !st) {
-    spdlog::error("{}", st.to_string());
+  std::string flags;
+  for (const std::string& o : overrides) flags += " " + (o.empty() ? std::string("\"\"") : o);
+  spdlog::info("config: {}{}", source, flags.empty() ? "" : ", flags" + flags);
+  std::istringstream described(server::describe(config));
+  for (std::string line; std::getline(described, line);) spdlog::debug("config: {}", line);
+
+  server::DaemonOptions options;
+  options.config = config;
+  options.cpu_plugin_path = default_cpu_plugin_path();
+  std::unique_ptr<server::Daemon> daemon;
+  if (rbdgrad::Status s = server::Daemon::create(std::move(options), daemon); !s) {
+    spdlog::error("{}", s.to_string());
     return 1;
   }
-  // one log record per summary line, so each carries the timestamp prefix
-  std::istringstream summary(rbdgrad::model_summary(model));
-  for (std::string line; std::getline(summary, line);) spdlog::info("{}", line);
-  spdlog::info("backend cpu: ready (in-process core library)");
   if (args.has("once")) return 0;
 
+  if (rbdgrad::Status s = daemon->start(); !s) {
+    spdlog::error("{}", s.to_string());
+    return 1;
+  }
+  const std::string* ready_file = args.value("ready-file");
+  if (ready_file != nullptr) {
+    if (rbdgrad::Status s = server::write_ready_file(*ready_file, daemon->addresses()); !s) {
+      spdlog::error("{}", s.to_string());
+      daemon->stop();
+      return 1;
+    }
+  }
+  spdlog::info("serving {} model(s) on {} backend(s); SIGINT or SIGTERM stops", daemon->models().size(),
+               daemon->backends().ready_count());
+
   const int signal = wait_for_stop_signal(stop);
-  spdlog::info("shutting down (signal {})", signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "?");
+  spdlog::info("shutting down (signal {}): finishing the requests in flight",
+               signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "?");
+  daemon->stop();
+  // the addresses are no longer served
+  if (ready_file != nullptr) std::remove(ready_file->c_str());
+  spdlog::info("stopped");
   return 0;
 }

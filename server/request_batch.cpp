@@ -175,7 +175,7 @@ uint32_t output_flag(v1::Output output) noexcept {
 }
 
 Status RequestBatch::from_request(const v1::ComputeRequest& req, int nv, rbdgrad_precision precision,
-                                  uint32_t max_states, RequestBatch& out) {
+                                  uint32_t max_states, RequestBatch& out, v1::ComputeResponse* direct) {
   const std::string pre = prefix(req.request_id());
   const uint64_t n = req.num_states();
 
@@ -187,7 +187,7 @@ Status RequestBatch::from_request(const v1::ComputeRequest& req, int nv, rbdgrad
                             " is not F64, F32 or FIXED_Q16_16 (AUTO must be resolved before conversion)");
   if (n == 0) return invalid_argument(pre + "num_states is 0");
   if (n > max_states)
-    return invalid_argument(pre + "num_states " + std::to_string(n) + " exceeds the limit " +
+    return invalid_argument(pre + "num_states " + std::to_string(n) + " exceeds the limit max_states_per_request = " +
                             std::to_string(max_states));
   if (req.input_kind() != v1::INPUT_KIND_TAU && req.input_kind() != v1::INPUT_KIND_QDD) {
     if (req.input_kind() == v1::INPUT_KIND_UNSPECIFIED)
@@ -239,8 +239,23 @@ Status RequestBatch::from_request(const v1::ComputeRequest& req, int nv, rbdgrad
   const uint64_t mat_bytes = vec_bytes * static_cast<uint64_t>(nv);
   const std::array<Buffer*, 8> out_buffers{&rb.qdd_,     &rb.minv_out_, &rb.dqdd_dq_,  &rb.dqdd_dqd_,
                                            &rb.tau_,     &rb.dtau_dq_,  &rb.dtau_dqd_, &rb.m_};
-  for (size_t i = 0; i < kOutputs.size(); ++i)
-    if (flags & kOutputs[i].flag) out_buffers[i]->resize(kOutputs[i].matrix ? mat_bytes : vec_bytes);
+  // F64 in and out: the response's own tensors are the output arrays (no copy afterwards)
+  const bool write_direct = direct != nullptr && precision == RBDGRAD_PRECISION_F64 &&
+                            req.output_type() != v1::SCALAR_TYPE_F32;
+  std::array<void*, 8> direct_ptr{};
+  for (size_t i = 0; i < kOutputs.size(); ++i) {
+    if (!(flags & kOutputs[i].flag)) continue;
+    const uint64_t bytes = kOutputs[i].matrix ? mat_bytes : vec_bytes;
+    if (write_direct) {
+      v1::Tensor* t = response_tensor(*direct, kOutputs[i].output);
+      t->set_type(v1::SCALAR_TYPE_F64);
+      t->mutable_data()->resize(bytes);
+      direct_ptr[i] = t->mutable_data()->data();
+      rb.direct_outputs_ |= kOutputs[i].flag;
+    } else {
+      out_buffers[i]->resize(bytes);
+    }
+  }
   rb.state_status_.assign(n, 0);
 
   rbdgrad_batch& b = rb.batch_;
@@ -256,14 +271,15 @@ Status RequestBatch::from_request(const v1::ComputeRequest& req, int nv, rbdgrad
   b.minv = present[3] ? rb.minv_.data() : nullptr;
   b.fext = present[4] ? rb.fext_.data() : nullptr;
   const auto ptr = [](Buffer& buf) -> void* { return buf.empty() ? nullptr : buf.data(); };
-  b.qdd = ptr(rb.qdd_);
-  b.minv_out = ptr(rb.minv_out_);
-  b.dqdd_dq = ptr(rb.dqdd_dq_);
-  b.dqdd_dqd = ptr(rb.dqdd_dqd_);
-  b.tau = ptr(rb.tau_);
-  b.dtau_dq = ptr(rb.dtau_dq_);
-  b.dtau_dqd = ptr(rb.dtau_dqd_);
-  b.m = ptr(rb.m_);
+  const auto out_ptr = [&](size_t i) { return direct_ptr[i] != nullptr ? direct_ptr[i] : ptr(*out_buffers[i]); };
+  b.qdd = out_ptr(0);
+  b.minv_out = out_ptr(1);
+  b.dqdd_dq = out_ptr(2);
+  b.dqdd_dqd = out_ptr(3);
+  b.tau = out_ptr(4);
+  b.dtau_dq = out_ptr(5);
+  b.dtau_dqd = out_ptr(6);
+  b.m = out_ptr(7);
   b.state_status = rb.state_status_.data();
 
   out = std::move(rb);
@@ -281,7 +297,7 @@ void RequestBatch::to_response(v1::ComputeResponse& resp, v1::ScalarType output_
   const uint64_t vec = batch_.n * static_cast<uint64_t>(nv_);
 
   for (const OutputSpec& spec : kOutputs) {
-    if (!(batch_.outputs & spec.flag)) continue;
+    if (!(batch_.outputs & spec.flag) || (direct_outputs_ & spec.flag)) continue;
     const auto* src = static_cast<const std::byte*>(plugin::output_pointer(batch_, spec.flag));
     const uint64_t count = spec.matrix ? vec * static_cast<uint64_t>(nv_) : vec;
     v1::Tensor* t = response_tensor(resp, spec.output);
@@ -289,6 +305,10 @@ void RequestBatch::to_response(v1::ComputeResponse& resp, v1::ScalarType output_
     std::string* data = t->mutable_data();
     data->resize(count * out_size);
     char* dst = data->data();
+    if (precision == RBDGRAD_PRECISION_F64 && !f32) {
+      std::memcpy(dst, src, count * sizeof(double));  // same encoding: one block
+      continue;
+    }
     for (uint64_t i = 0; i < count; ++i) {
       // read in the compute precision, widen to double, then narrow to the wire type
       double v;

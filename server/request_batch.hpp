@@ -31,15 +31,19 @@ class RequestBatch {
   /// the requested outputs only and a state_status of num_states entries. On error `out` is
   /// left untouched and the Status is invalid_argument naming the request id, the field and,
   /// for a bad value, the state and element.
+  /// With `direct`, when the computation and the wire are both F64 the backend writes the outputs
+  /// straight into direct's tensors (sized and typed here; no copy in to_response): `direct` must
+  /// then outlive the computation and be the response given to to_response.
   static Status from_request(const rbdgrad::v1::ComputeRequest& req, int nv, rbdgrad_precision precision,
-                             uint32_t max_states, RequestBatch& out);
+                             uint32_t max_states, RequestBatch& out, rbdgrad::v1::ComputeResponse* direct = nullptr);
 
   /// The batch to hand to a plugin's compute; its pointers stay valid while *this lives.
   const rbdgrad_batch& batch() const noexcept { return batch_; }
   rbdgrad_batch& mutable_batch() noexcept { return batch_; }
 
   /// Copies every requested output into `resp` encoded as `output_type` (UNSPECIFIED = F64;
-  /// Q16.16 values become raw / 65536), with request_id, num_states and precision.
+  /// Q16.16 values become raw / 65536), with request_id, num_states and precision. Outputs that
+  /// from_request pointed at `direct` are already in place and not copied.
   void to_response(rbdgrad::v1::ComputeResponse& resp, rbdgrad::v1::ScalarType output_type) const;
 
   int nv() const noexcept { return nv_; }
@@ -56,6 +60,7 @@ class RequestBatch {
   Buffer q_, qd_, u_, minv_, fext_;
   Buffer qdd_, minv_out_, dqdd_dq_, dqdd_dqd_, tau_, dtau_dq_, dtau_dqd_, m_;
   std::vector<int32_t> state_status_;
+  uint32_t direct_outputs_ = 0;  // rbdgrad_output flags written straight into the response
 };
 
 }  // namespace rbdgrad::server

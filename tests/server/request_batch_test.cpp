@@ -155,7 +155,7 @@ TEST(RequestBatchTest, RejectsBadRequestWideFields) {
 
   req = valid_request();
   req.set_num_states(70000);
-  expect_error(req, {"request 'abc': num_states 70000 exceeds the limit 65536"});
+  expect_error(req, {"request 'abc': num_states 70000 exceeds the limit max_states_per_request = 65536"});
 
   req = valid_request();
   req.set_input_kind(v1::INPUT_KIND_UNSPECIFIED);
@@ -274,6 +274,32 @@ TEST(RequestBatchTest, ToResponseWritesF64) {
   // unrequested outputs stay empty
   EXPECT_TRUE(resp.tau().data().empty());
   EXPECT_FALSE(resp.has_m());
+}
+
+TEST(RequestBatchTest, F64OutputsGoStraightIntoTheResponse) {
+  v1::ComputeResponse resp;
+  RequestBatch rb;
+  ASSERT_TRUE(
+      RequestBatch::from_request(valid_request(), kNv, RBDGRAD_PRECISION_F64, kMaxStates, rb, &resp).is_ok());
+  // the backend's output arrays are the response's tensors
+  EXPECT_EQ(rb.batch().qdd, static_cast<const void*>(resp.qdd().data().data()));
+  EXPECT_EQ(rb.batch().dtau_dq, static_cast<const void*>(resp.dtau_dq().data().data()));
+  fill_outputs(rb, 0.5);
+  rb.to_response(resp, v1::SCALAR_TYPE_UNSPECIFIED);
+  EXPECT_EQ(resp.qdd().type(), v1::SCALAR_TYPE_F64);
+  ASSERT_EQ(resp.dtau_dq().data().size(), kN * kNv * kNv * sizeof(double));
+  EXPECT_EQ(at<double>(resp.qdd().data().data(), 20), 10.0);
+  EXPECT_EQ(at<double>(resp.dtau_dq().data().data(), 146), 73.0);
+  EXPECT_FALSE(resp.has_m());
+
+  // an F32 wire or compute precision still goes through the batch's own buffers
+  v1::ComputeRequest f32_out = valid_request();
+  f32_out.set_output_type(v1::SCALAR_TYPE_F32);
+  v1::ComputeResponse other;
+  ASSERT_TRUE(RequestBatch::from_request(f32_out, kNv, RBDGRAD_PRECISION_F64, kMaxStates, rb, &other).is_ok());
+  EXPECT_FALSE(other.has_qdd());
+  ASSERT_TRUE(RequestBatch::from_request(valid_request(), kNv, RBDGRAD_PRECISION_F32, kMaxStates, rb, &other).is_ok());
+  EXPECT_FALSE(other.has_qdd());
 }
 
 TEST(RequestBatchTest, ToResponseWritesF32FromFixed) {

@@ -1,0 +1,202 @@
+// Loading the backends, creating their instances per model, and routing requests to them.
+#include "backend_pool.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <thread>
+#include <utility>
+
+namespace rbdgrad::server {
+namespace {
+
+constexpr std::uint32_t kPrecisionOrder[] = {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32,
+                                             RBDGRAD_PRECISION_FIXED_Q16_16};
+
+std::int64_t cpu_threads(std::int64_t workers) {
+  if (workers > 0) return workers;
+  const unsigned hw = std::thread::hardware_concurrency();  // 0 when unknown
+  return hw > 0 ? hw : 1;
+}
+
+std::string options_text(const std::map<std::string, std::string>& options) {
+  std::string out;
+  for (const auto& [key, value] : options) {
+    if (!out.empty()) out += ", ";
+    out += key + "=" + value;
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* precision_label(std::uint32_t precision) noexcept {
+  switch (precision) {
+    case RBDGRAD_PRECISION_F64: return "f64";
+    case RBDGRAD_PRECISION_F32: return "f32";
+    case RBDGRAD_PRECISION_FIXED_Q16_16: return "fixed";
+    default: return "unknown";
+  }
+}
+
+std::string precision_list(std::uint32_t flags) {
+  std::string out;
+  for (std::uint32_t p : kPrecisionOrder) {
+    if ((flags & p) == 0) continue;
+    if (!out.empty()) out += ", ";
+    out += precision_label(p);
+  }
+  return out.empty() ? "none" : out;
+}
+
+std::string backend_name_from_path(const std::string& path) {
+  std::string name = std::filesystem::path(path).filename().string();
+  name = name.substr(0, name.find('.'));
+  for (std::string_view prefix : {"lib", "rbdgrad_"}) {
+    if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0) name.erase(0, prefix.size());
+  }
+  return name.empty() ? path : name;
+}
+
+BackendPool::~BackendPool() = default;
+
+std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const ModelRegistry& models) {
+  std::unique_ptr<BackendPool> pool(new BackendPool());
+  const auto load = [&](const std::string& path, const std::map<std::string, std::string>& plugin_options) {
+    if (Status s = pool->registry_.add(path); !s) {
+      BackendState state;
+      state.name = backend_name_from_path(path);
+      state.path = path;
+      state.reason = s.message();
+      pool->states_.push_back(std::move(state));
+      return;
+    }
+    pool->add_backend(*pool->registry_.available().back(), plugin_options, options, models);
+  };
+  for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.options);
+  // the built-in CPU backend, unless the configuration brought its own
+  if (!options.cpu_plugin_path.empty() && pool->find("cpu") == nullptr) load(options.cpu_plugin_path, {});
+  return pool;
+}
+
+void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
+                              const Options& options, const ModelRegistry& models) {
+  BackendState state;
+  state.name = plugin.info().name;
+  state.path = plugin.path();
+  state.info = plugin.info();
+  state.instances_per_model = std::max<std::size_t>(options.instances_per_model, 1);
+
+  std::map<std::string, std::string> instance_options = configured_options;
+  // `workers` sizes the CPU backend unless its own options already do
+  if (state.name == "cpu" && instance_options.count("threads") == 0) {
+    instance_options["threads"] = std::to_string(cpu_threads(options.workers));
+  }
+  state.options = options_text(instance_options);
+
+  Backend backend;
+  backend.state = states_.size();
+  backend.plugin = &plugin;
+  backend.pools.resize(models.size());
+  backend.model_reason.resize(models.size());
+  for (const auto& model : models.models()) {
+    const std::size_t m = model->index;
+    std::string reason;
+    if (state.info.max_nv != 0 && static_cast<std::uint32_t>(model->model.nv) > state.info.max_nv) {
+      reason = "the model has nv " + std::to_string(model->model.nv) + ", the backend takes at most " +
+               std::to_string(state.info.max_nv);
+    }
+    std::vector<std::unique_ptr<PluginInstance>> instances;
+    for (std::size_t i = 0; reason.empty() && i < state.instances_per_model; ++i) {
+      std::unique_ptr<PluginInstance> instance;
+      if (Status s = plugin.create_instance(model->desc.desc(), instance_options, instance); !s) {
+        reason = s.message();
+      } else {
+        instances.push_back(std::move(instance));
+      }
+    }
+    if (!reason.empty()) {
+      state.model_problems.push_back("model '" + model->name + "': " + reason);
+      backend.model_reason[m] = std::move(reason);
+      continue;
+    }
+    backend.pools[m] = std::make_unique<InstancePool>(std::move(instances), options.pool);
+  }
+  state.ready = std::any_of(backend.pools.begin(), backend.pools.end(), [](const auto& p) { return p != nullptr; });
+  if (!state.ready) {
+    state.reason = models.size() == 0 ? "no models to serve" : "serves no model: " + state.model_problems.front();
+  }
+  states_.push_back(std::move(state));
+  backends_.push_back(std::move(backend));
+}
+
+std::size_t BackendPool::ready_count() const noexcept {
+  return static_cast<std::size_t>(std::count_if(states_.begin(), states_.end(), [](const auto& s) { return s.ready; }));
+}
+
+const BackendPool::Backend* BackendPool::find(std::string_view name) const noexcept {
+  for (const Backend& b : backends_) {
+    if (states_[b.state].name == name) return &b;
+  }
+  return nullptr;
+}
+
+Status BackendPool::unavailable_backend(std::string_view name) const {
+  std::string why = "not configured";
+  // the last attempt under this name says most (a later plugin may have replaced an earlier one)
+  for (auto it = states_.rbegin(); it != states_.rend(); ++it) {
+    if (it->name == name && !it->ready) {
+      why = it->reason;
+      break;
+    }
+  }
+  return unavailable("backend " + std::string(name) + " is not available: " + why);
+}
+
+Status BackendPool::route(const ServedModel& model, std::string_view backend_name, std::uint32_t precision,
+                          Route& out) const {
+  const Backend* backend = nullptr;
+  if (backend_name.empty()) {
+    // automatic: the CPU backend, else whichever backend serves the model
+    backend = find("cpu");
+    if (backend == nullptr || backend->pools[model.index] == nullptr) {
+      backend = nullptr;
+      for (const Backend& b : backends_) {
+        if (b.pools[model.index] != nullptr) {
+          backend = &b;
+          break;
+        }
+      }
+    }
+    if (backend == nullptr) return unavailable("no backend is available for model '" + model.name + "'");
+  } else {
+    backend = find(backend_name);
+    if (backend == nullptr) return unavailable_backend(backend_name);
+    if (backend->pools[model.index] == nullptr) {
+      return unavailable("backend " + std::string(backend_name) + " is not available for model '" + model.name +
+                         "': " + backend->model_reason[model.index]);
+    }
+  }
+
+  const BackendState& state = states_[backend->state];
+  const std::uint32_t supported = state.info.precisions;
+  if (precision == 0) {
+    for (std::uint32_t p : kPrecisionOrder) {
+      if (supported & p) {
+        precision = p;
+        break;
+      }
+    }
+    if (precision == 0) return unavailable("backend " + state.name + " lists no precision");
+  } else if ((supported & precision) == 0) {
+    return invalid_argument("backend " + state.name + " does not support precision " + precision_label(precision) +
+                            " (it supports " + precision_list(supported) + ")");
+  }
+
+  out.pool = backend->pools[model.index].get();
+  out.plugin = backend->plugin;
+  out.backend = &state;
+  out.precision = static_cast<rbdgrad_precision>(precision);
+  return Status::ok();
+}
+
+}  // namespace rbdgrad::server

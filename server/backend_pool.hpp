@@ -1,0 +1,115 @@
+// The daemon's backends: the plugins it loaded (the CPU backend found next to the binary, the
+// others from the configuration), an InstancePool per (model, backend), and the routing of a
+// request to one of them. A plugin that is missing or broken, or that cannot take a model, is
+// recorded as unavailable with the reason and skipped; the daemon decides whether it can serve
+// with what is left.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config.hpp"
+#include "instance_pool.hpp"
+#include "model_registry.hpp"
+#include "plugin_loader.hpp"
+#include "rbdgrad/status.hpp"
+
+namespace rbdgrad::server {
+
+// The outcome of loading one backend, for the start-up log and GetServerInfo.
+struct BackendState {
+  std::string name;   // the plugin's own name ("cpu", "cuda"); for one that did not load, derived
+                      // from its file name (librbdgrad_cuda.so -> "cuda", see backend_name_from_path)
+  std::string path;   // the shared object
+  bool ready = false;  // loaded, and serves at least one model
+  std::string reason;  // why not ready; "" when ready
+  PluginInfo info;     // what the plugin says it can do; meaningful when it loaded
+  // "model 'hyq': <why>" for each model this backend cannot serve (it serves the others)
+  std::vector<std::string> model_problems;
+  std::size_t instances_per_model = 0;  // instances created per served model
+  std::string options;  // "threads=8": the instance options it was given, for the log
+};
+
+// Where one request goes.
+struct Route {
+  InstancePool* pool = nullptr;    // the (model, backend) pool that runs it
+  const Plugin* plugin = nullptr;  // for can_run
+  const BackendState* backend = nullptr;
+  rbdgrad_precision precision = RBDGRAD_PRECISION_F64;  // resolved: never "auto"
+};
+
+/// "f64", "f32", "fixed", or "unknown": the precision names of messages and logs.
+const char* precision_label(std::uint32_t precision) noexcept;
+/// The precisions of `flags` in the order f64, f32, fixed: "f64, f32".
+std::string precision_list(std::uint32_t flags);
+/// librbdgrad_cuda.so -> "cuda", /x/fake_fpga.so -> "fake_fpga": the name a backend that failed to
+/// load is reported under (the file name without directory, "lib" and "rbdgrad_" prefixes and
+/// everything from the first '.').
+std::string backend_name_from_path(const std::string& path);
+
+class BackendPool {
+ public:
+  struct Options {
+    // The built-in CPU backend (librbdgrad_cpu.so); loaded unless `plugins` already yields a
+    // plugin named "cpu". Empty = none.
+    std::string cpu_plugin_path;
+    // Extra backends, loaded in order before the CPU one.
+    std::vector<PluginConfig> plugins;
+    // Threads of each CPU instance (the plugin's "threads" option) unless the CPU plugin's own
+    // options set "threads". 0 = std::thread::hardware_concurrency().
+    std::int64_t workers = 0;
+    // Instances per (model, backend): how many requests for one model run at once on a backend.
+    // Default 1: a CPU instance already spreads one batch over `workers` threads.
+    std::size_t instances_per_model = 1;
+    InstancePool::Options pool;
+  };
+
+  /// Loads the plugins and creates the instances of every model on each. Never fails as a whole:
+  /// every problem is recorded in backends(); ready_count() says whether anything can serve.
+  static std::unique_ptr<BackendPool> create(const Options& options, const ModelRegistry& models);
+
+  ~BackendPool();
+  BackendPool(const BackendPool&) = delete;
+  BackendPool& operator=(const BackendPool&) = delete;
+
+  /// Every backend tried, in load order; a backend that was never configured is not listed.
+  const std::vector<BackendState>& backends() const noexcept { return states_; }
+  /// How many backends are ready.
+  std::size_t ready_count() const noexcept;
+
+  /// Picks the backend and precision for a request on `model`.
+  /// \param backend "cpu", "cuda", "fpga", ... or "" for automatic: cpu when it serves the model,
+  ///        else the first ready backend that does.
+  /// \param precision one rbdgrad_precision flag, or 0 for automatic: f64 when the backend has it,
+  ///        else f32, else fixed.
+  /// Errors: unavailable "backend cuda is not available: <why, or 'not configured'>" (also
+  /// "... for model 'x': <why>"); invalid_argument "backend cuda does not support precision fixed
+  /// (it supports f64, f32)".
+  Status route(const ServedModel& model, std::string_view backend, std::uint32_t precision, Route& out) const;
+
+ private:
+  // one loaded plugin with its pools, indexed by model; parallel to states_ where loaded
+  struct Backend {
+    std::size_t state = 0;  // index in states_
+    const Plugin* plugin = nullptr;
+    std::vector<std::unique_ptr<InstancePool>> pools;  // (models) nullptr where the model failed
+    std::vector<std::string> model_reason;             // (models) why, where pools[i] is null
+  };
+
+  BackendPool() = default;
+  void add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
+                   const Options& options, const ModelRegistry& models);
+  const Backend* find(std::string_view name) const noexcept;
+  Status unavailable_backend(std::string_view name) const;
+
+  PluginRegistry registry_;        // owns the loaded plugins
+  std::vector<BackendState> states_;
+  std::vector<Backend> backends_;  // the loaded ones
+};
+
+}  // namespace rbdgrad::server

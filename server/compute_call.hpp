@@ -1,0 +1,105 @@
+// One ComputeRequest from acceptance to its serialized response, shared by the unary and the
+// streaming handlers: parse, find the model, route, validate and convert (prepare, on the gRPC
+// thread), then compute, fill the response with its timings and serialize it (run, on whichever
+// thread the InstancePool gives it), then complete() hands it back to the handler.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+#include <grpcpp/support/byte_buffer.h>
+
+#include "backend_pool.hpp"
+#include "config.hpp"
+#include "instance_pool.hpp"
+#include "model_registry.hpp"
+#include "rbdgrad/status.hpp"
+#include "rbdgrad/v1/dynamics.pb.h"
+#include "request_batch.hpp"
+
+namespace rbdgrad::server {
+
+// What every compute call needs from the service: read-only after start-up, except the
+// admission counter.
+class ComputeContext {
+ public:
+  ComputeContext(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits)
+      : models_(models), backends_(backends), limits_(limits) {}
+
+  const ModelRegistry& models() const noexcept { return models_; }
+  const BackendPool& backends() const noexcept { return backends_; }
+  const LimitsConfig& limits() const noexcept { return limits_; }
+
+  enum class Admission { kAdmitted, kTooManyInFlight, kShuttingDown };
+
+  /// Counts one more request in flight, unless max_concurrent_requests are already in flight or
+  /// the daemon is stopping (then nothing is counted). Every kAdmitted must be matched by one
+  /// release(), once the response has gone out.
+  Admission admit() noexcept;
+  void release() noexcept { in_flight_.fetch_sub(1, std::memory_order_relaxed); }
+  std::int64_t in_flight() const noexcept { return in_flight_.load(std::memory_order_relaxed); }
+
+  /// From now on admit() refuses every request with kShuttingDown.
+  void begin_shutdown() noexcept { stopping_.store(true, std::memory_order_relaxed); }
+
+ private:
+  const ModelRegistry& models_;
+  const BackendPool& backends_;
+  const LimitsConfig limits_;
+  std::atomic<std::int64_t> in_flight_{0};
+  std::atomic<bool> stopping_{false};
+};
+
+/// The message of a request refused because the daemon is stopping.
+inline constexpr const char* kShuttingDownMessage = "rbdgradd is shutting down";
+
+class ComputeCall : public PoolJob {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  /// \param accepted when the request was received: the start of queue_us and total_us.
+  /// \param response_bytes where run() serializes the response; must outlive complete().
+  ComputeCall(Clock::time_point accepted, grpc::ByteBuffer* response_bytes)
+      : accepted_(accepted), response_bytes_(response_bytes) {}
+  ComputeCall(const ComputeCall&) = delete;
+  ComputeCall& operator=(const ComputeCall&) = delete;
+
+  /// Parses `message` as a ComputeRequest and readies the job: model lookup (not_found naming the
+  /// loaded models), backend and precision (BackendPool::route), the inputs (RequestBatch), the
+  /// backend's can_run. Every error names the request: "request 'id': ...", or, for a request
+  /// without an id on a stream, "stream message 3: ...". `stream_index` < 0 for a unary call.
+  /// A message that does not parse is invalid_argument "malformed ComputeRequest (12 bytes)".
+  /// Nothing is kept on error: the call is then not to be submitted.
+  Status prepare(const grpc::ByteBuffer& message, const ComputeContext& context, std::int64_t stream_index);
+
+  /// Hands a prepared call to its backend's pool: run() then happens exactly once, maybe before
+  /// submit() returns.
+  void submit() { route_.pool->submit(*this, batch_.num_states()); }
+
+  /// The outcome, valid once complete() is called: ok (and the response serialized into
+  /// response_bytes) or the error, with the backend's code and a message naming the request.
+  const Status& status() const noexcept { return status_; }
+
+ protected:
+  virtual ~ComputeCall() = default;
+
+  /// Called once, at the end of run(), on the thread that ran it. The call may be deleted here:
+  /// nothing touches it afterwards.
+  virtual void complete() noexcept = 0;
+
+ private:
+  void run(PluginInstance& instance) noexcept final;
+
+  const Clock::time_point accepted_;
+  grpc::ByteBuffer* const response_bytes_;
+  std::string prefix_;  // "request 'id': " for messages
+  rbdgrad::v1::ComputeRequest request_;
+  rbdgrad::v1::ComputeResponse response_;
+  RequestBatch batch_;
+  Route route_;
+  Status status_;
+};
+
+}  // namespace rbdgrad::server

@@ -1,0 +1,174 @@
+// Start-up (models, backends, listeners) and graceful stop of the daemon.
+#include "daemon.hpp"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server_builder.h>
+
+#include <algorithm>
+#include <sstream>
+#include <thread>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "unix_socket.hpp"
+
+#ifndef RBDGRAD_VERSION
+#define RBDGRAD_VERSION "unknown"
+#endif
+
+namespace rbdgrad::server {
+namespace {
+
+// How long gRPC's Shutdown waits for calls other than compute ones before it cancels them.
+constexpr std::chrono::milliseconds kCloseGrace{200};
+
+std::string backend_line(const BackendState& b) {
+  std::ostringstream os;
+  os << "backend " << b.name << ": ready ";
+  // the CPU plugin runs the core library inside the daemon's process
+  if (b.name == "cpu") os << "(in-process core library) ";
+  os << "from " << b.path << ": version " << (b.info.version.empty() ? "?" : b.info.version) << ", precisions "
+     << precision_list(b.info.precisions) << ", max_batch ";
+  if (b.info.max_batch == 0) {
+    os << "unlimited";
+  } else {
+    os << b.info.max_batch;
+  }
+  os << ", " << b.instances_per_model << " instance(s) per model";
+  if (!b.options.empty()) os << " (" << b.options << ")";
+  return os.str();
+}
+
+// "127.0.0.1:0" with port 41234 -> "127.0.0.1:41234"
+std::string with_port(const std::string& address, int port) {
+  const auto colon = address.rfind(':');
+  return (colon == std::string::npos ? address : address.substr(0, colon)) + ":" + std::to_string(port);
+}
+
+}  // namespace
+
+void log_lines(const std::string& text) {
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) spdlog::info("{}", line);
+}
+
+Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
+  std::unique_ptr<Daemon> d(new Daemon(std::move(options)));
+  const ServerConfig& cfg = d->options_.config;
+
+  if (Status s = ModelRegistry::load(cfg.models, d->models_); !s) return s;
+  for (const auto& m : d->models_.models()) {
+    std::string summary = m->summary;
+    // the name clients use, when it is not the robot's own
+    if (m->name != m->model.name) {
+      const auto first_line_end = std::min(summary.find('\n'), summary.size());
+      summary.insert(first_line_end, " (served as '" + m->name + "')");
+    }
+    log_lines(summary);
+  }
+
+  BackendPool::Options backend_options;
+  backend_options.cpu_plugin_path = d->options_.cpu_plugin_path;
+  backend_options.plugins = cfg.plugins;
+  backend_options.workers = cfg.workers;
+  backend_options.pool = d->options_.pool;
+  d->backends_ = BackendPool::create(backend_options, d->models_);
+  for (const BackendState& b : d->backends_->backends()) {
+    if (b.ready) {
+      spdlog::info("{}", backend_line(b));
+      for (const std::string& problem : b.model_problems) spdlog::warn("backend {}: cannot serve {}", b.name, problem);
+    } else {
+      spdlog::warn("backend {}: unavailable: {}", b.name, b.reason);
+    }
+  }
+  if (d->backends_->ready_count() == 0) return unavailable("no backend is available: nothing can serve requests");
+
+  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, cfg.limits, RBDGRAD_VERSION);
+  out = std::move(d);
+  return Status::ok();
+}
+
+Daemon::~Daemon() { stop(); }
+
+Status Daemon::start() {
+  if (server_) return failed_precondition("the daemon is already serving");
+  const ListenConfig& listen = options_.config.listen;
+  if (listen.tcp.empty() && listen.unix_socket.empty()) {
+    return invalid_argument("no listen address: set listen.tcp and/or listen.unix_socket");
+  }
+  if (!listen.unix_socket.empty()) {
+    if (Status s = free_unix_socket_path(listen.unix_socket); !s) return s;
+  }
+
+  // process-wide switches, read when the server is built
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+
+  grpc::ServerBuilder builder;
+  int port = 0;
+  if (!listen.tcp.empty()) builder.AddListeningPort(listen.tcp, grpc::InsecureServerCredentials(), &port);
+  if (!listen.unix_socket.empty()) {
+    builder.AddListeningPort("unix:" + listen.unix_socket, grpc::InsecureServerCredentials());
+  }
+  const auto max_bytes = static_cast<int>(options_.config.limits.max_message_bytes);
+  builder.SetMaxReceiveMessageSize(max_bytes);
+  builder.SetMaxSendMessageSize(max_bytes);
+  // gRPC sets SO_REUSEPORT by default: a second daemon on the same port would then share it silently
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  builder.RegisterService(service_.get());
+
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  std::string where = listen.tcp.empty() ? "" : "tcp " + listen.tcp;
+  if (!listen.unix_socket.empty()) where += (where.empty() ? "" : ", ") + std::string("unix ") + listen.unix_socket;
+  if (!server) return failed_precondition("cannot listen on " + where + " (gRPC's log above says why)");
+  if (!listen.tcp.empty() && port == 0) {
+    server->Shutdown();
+    return failed_precondition("cannot listen on tcp " + listen.tcp + " (in use, or not a local address)");
+  }
+
+  addresses_.clear();
+  if (!listen.tcp.empty()) {
+    tcp_port_ = port;
+    addresses_.push_back({"tcp", with_port(listen.tcp, port)});
+  }
+  if (!listen.unix_socket.empty()) {
+    socket_inode_ = socket_inode(listen.unix_socket);
+    addresses_.push_back({"unix", listen.unix_socket});
+  }
+  server_ = std::move(server);
+  for (const ListenAddress& a : addresses_) spdlog::info("listening on {}", a.text());
+  return Status::ok();
+}
+
+void Daemon::stop() {
+  if (!server_) return;
+  // clients that watch health learn first; then streams are told; then gRPC stops accepting and
+  // waits for the calls under way (cancelling what is left at the deadline)
+  if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) health->Shutdown();
+  service_->begin_shutdown();
+  // Our own calls are drained first: gRPC's Shutdown(deadline) also waits until every client
+  // has closed its connection, and an idle client (no call, nothing polling its socket) never
+  // reads the GOAWAY, so Shutdown would sit out the whole deadline. Polled: stopping is rare,
+  // and the request path stays free of notifications.
+  const auto deadline = std::chrono::steady_clock::now() + options_.shutdown_grace;
+  while (!service_->drained() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (!service_->drained()) {
+    spdlog::warn("{} compute request(s) still in flight after the shutdown grace of {} ms: cancelling them",
+                 service_->in_flight(), options_.shutdown_grace.count());
+  }
+  // a moment for calls outside the Dynamics compute path (metadata, health) to answer; then the
+  // remaining connections are closed
+  server_->Shutdown(std::chrono::system_clock::now() + kCloseGrace);
+  server_->Wait();
+  server_.reset();
+  if (!options_.config.listen.unix_socket.empty()) remove_own_socket(options_.config.listen.unix_socket, socket_inode_);
+  addresses_.clear();
+  tcp_port_ = 0;
+}
+
+}  // namespace rbdgrad::server

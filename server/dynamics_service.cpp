@@ -1,0 +1,190 @@
+// The Dynamics service's handlers.
+#include "dynamics_service.hpp"
+
+#include <algorithm>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "grpc_status.hpp"
+#include "proto_enums.hpp"
+
+namespace rbdgrad::server {
+namespace {
+
+namespace v1 = rbdgrad::v1;
+
+// A unary Compute and its reactor: finishes the RPC when its job completes, and counts as in
+// flight until gRPC is done with it (OnDone), i.e. until the response has gone out, so that a
+// stopping daemon closes connections only after every answer has left.
+class UnaryCall final : public ComputeCall, public grpc::ServerUnaryReactor {
+ public:
+  UnaryCall(Clock::time_point accepted, grpc::ByteBuffer* response, ComputeContext& context)
+      : ComputeCall(accepted, response), context_(context) {}
+
+  /// Counts the call against max_concurrent_requests; false (and the RPC finished) when refused.
+  bool admit() {
+    switch (context_.admit()) {
+      case ComputeContext::Admission::kAdmitted:
+        admitted_ = true;
+        return true;
+      case ComputeContext::Admission::kTooManyInFlight:
+        Finish({grpc::StatusCode::RESOURCE_EXHAUSTED,
+                "too many requests in flight (limit max_concurrent_requests = " +
+                    std::to_string(context_.limits().max_concurrent_requests) + ")"});
+        return false;
+      case ComputeContext::Admission::kShuttingDown:
+        Finish({grpc::StatusCode::UNAVAILABLE, kShuttingDownMessage});
+        return false;
+    }
+    return false;
+  }
+
+  // for a request refused before it ran
+  void refuse(const Status& status) {
+    spdlog::debug("request refused: {}", status.to_string());
+    Finish(to_grpc_status(status));
+  }
+
+  void OnDone() override {
+    if (admitted_) context_.release();
+    delete this;
+  }
+
+ private:
+  void complete() noexcept override {
+    if (!status().is_ok()) spdlog::debug("request failed: {}", status().to_string());
+    Finish(to_grpc_status(status()));
+  }
+
+  ComputeContext& context_;
+  bool admitted_ = false;
+};
+
+void add_precisions(std::uint32_t flags, v1::BackendInfo& info) {
+  for (std::uint32_t p : {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32, RBDGRAD_PRECISION_FIXED_Q16_16}) {
+    if (flags & p) info.add_precisions(precision_enum(p));
+  }
+}
+
+}  // namespace
+
+v1::GetModelResponse describe_model(const ServedModel& served) {
+  const Model& model = served.model;
+  v1::GetModelResponse out;
+  out.set_name(served.name);
+  out.set_nv(static_cast<std::uint32_t>(model.nv));
+  for (int i = 0; i < model.nv; ++i) {
+    const JointInfo& j = model.joints[static_cast<std::size_t>(i)];
+    v1::Joint* joint = out.add_joints();
+    joint->set_name(j.name);
+    joint->set_type(j.urdf_type);
+    joint->set_parent(model.parent[static_cast<std::size_t>(i)]);
+    joint->set_parent_link(j.parent_link);
+    joint->set_child_link(j.child_link);
+    joint->set_lower_limit(j.lower_limit);
+    joint->set_upper_limit(j.upper_limit);
+    joint->set_effort_limit(j.effort_limit);
+    joint->set_velocity_limit(j.velocity_limit);
+  }
+  for (int k = 0; k < 3; ++k) out.add_gravity(model.gravity[k]);
+  out.set_summary(served.summary);
+  return out;
+}
+
+v1::GetServerInfoResponse describe_server(const BackendPool& backends, const LimitsConfig& limits,
+                                          const std::string& version) {
+  v1::GetServerInfoResponse out;
+  out.set_version(version);
+  for (const BackendState& state : backends.backends()) {
+    v1::BackendInfo* info = out.add_backends();
+    info->set_backend(backend_enum(state.name));
+    info->set_name(state.name);
+    info->set_ready(state.ready);
+    info->set_reason(state.reason);
+    if (!state.info.name.empty()) {
+      add_precisions(state.info.precisions, *info);
+      info->set_max_batch(state.info.max_batch);
+    }
+  }
+  // the backends the API names are always listed, so that a client sees why one is missing
+  for (const char* name : {"cpu", "cuda", "fpga"}) {
+    const auto& all = backends.backends();
+    if (std::any_of(all.begin(), all.end(), [&](const BackendState& s) { return s.name == name; })) continue;
+    v1::BackendInfo* info = out.add_backends();
+    info->set_backend(backend_enum(name));
+    info->set_name(name);
+    info->set_ready(false);
+    info->set_reason("not configured");
+  }
+  out.set_max_states_per_request(static_cast<std::uint32_t>(limits.max_states_per_request));
+  out.set_max_message_bytes(static_cast<std::uint64_t>(limits.max_message_bytes));
+  out.set_max_concurrent_requests(static_cast<std::uint32_t>(limits.max_concurrent_requests));
+  return out;
+}
+
+DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
+                                 std::string version)
+    : context_(models, backends, limits), server_info_(describe_server(backends, limits, version)) {
+  for (const auto& m : models.models()) {
+    v1::ModelSummary* s = list_models_.add_models();
+    s->set_name(m->name);
+    s->set_nv(static_cast<std::uint32_t>(m->model.nv));
+    s->set_source(m->source);
+  }
+}
+
+grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* /*context*/,
+                                                   const grpc::ByteBuffer* request, grpc::ByteBuffer* response) {
+  const auto accepted = ComputeCall::Clock::now();
+  // gRPC deletes nothing of ours: the call deletes itself in OnDone, which gRPC calls only after
+  // this handler has returned it
+  auto* call = new UnaryCall(accepted, response, context_);
+  if (!call->admit()) return call;
+  if (Status s = call->prepare(*request, context_, -1); !s) {
+    call->refuse(s);
+    return call;
+  }
+  call->submit();  // the call finishes the RPC, maybe before submit returns
+  return call;
+}
+
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DynamicsService::ComputeStream(
+    grpc::CallbackServerContext* /*context*/) {
+  return new ComputeStreamReactor(context_, streams_);
+}
+
+grpc::ServerUnaryReactor* DynamicsService::ListModels(grpc::CallbackServerContext* context,
+                                                      const v1::ListModelsRequest* /*request*/,
+                                                      v1::ListModelsResponse* response) {
+  *response = list_models_;
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::GetModel(grpc::CallbackServerContext* context,
+                                                    const v1::GetModelRequest* request,
+                                                    v1::GetModelResponse* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  const ServedModel* model = context_.models().find(request->name());
+  if (model == nullptr) {
+    reactor->Finish(to_grpc_status(not_found("model '" + request->name() + "' is not loaded (loaded models: " +
+                                             context_.models().names() + ")")));
+    return reactor;
+  }
+  *response = describe_model(*model);
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::GetServerInfo(grpc::CallbackServerContext* context,
+                                                         const v1::GetServerInfoRequest* /*request*/,
+                                                         v1::GetServerInfoResponse* response) {
+  *response = server_info_;
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+}  // namespace rbdgrad::server

@@ -1,0 +1,75 @@
+// The rbdgrad.v1.Dynamics service on gRPC's callback API: a thin adapter from RPCs to the model
+// registry, the backends and ComputeCall. Compute and ComputeStream are registered as raw
+// (ByteBuffer) methods so that a message that does not parse is the client's INVALID_ARGUMENT
+// rather than gRPC's INTERNAL; the other methods are typed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <grpcpp/support/byte_buffer.h>
+#include <grpcpp/support/server_callback.h>
+
+#include "backend_pool.hpp"
+#include "compute_call.hpp"
+#include "compute_stream.hpp"
+#include "config.hpp"
+#include "model_registry.hpp"
+#include "rbdgrad/v1/dynamics.grpc.pb.h"
+
+namespace rbdgrad::server {
+
+using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute<
+    rbdgrad::v1::Dynamics::WithRawCallbackMethod_ComputeStream<rbdgrad::v1::Dynamics::WithCallbackMethod_ListModels<
+        rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<
+            rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<rbdgrad::v1::Dynamics::Service>>>>>;
+
+class DynamicsService final : public DynamicsServiceBase {
+ public:
+  /// `models` and `backends` must outlive the service; `version` is GetServerInfo's.
+  DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
+                  std::string version);
+
+  /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
+  /// now, busy ones after their last response. Calls already accepted complete normally.
+  void begin_shutdown() {
+    context_.begin_shutdown();
+    streams_.shutdown();
+  }
+
+  /// Every accepted compute request has been answered and every stream has ended.
+  bool drained() const { return context_.in_flight() == 0 && streams_.empty(); }
+
+  /// Compute requests accepted and not yet answered (unary and streamed).
+  std::int64_t in_flight() const noexcept { return context_.in_flight(); }
+
+  grpc::ServerUnaryReactor* Compute(grpc::CallbackServerContext* context, const grpc::ByteBuffer* request,
+                                    grpc::ByteBuffer* response) override;
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* ComputeStream(
+      grpc::CallbackServerContext* context) override;
+  grpc::ServerUnaryReactor* ListModels(grpc::CallbackServerContext* context, const rbdgrad::v1::ListModelsRequest* request,
+                                       rbdgrad::v1::ListModelsResponse* response) override;
+  grpc::ServerUnaryReactor* GetModel(grpc::CallbackServerContext* context, const rbdgrad::v1::GetModelRequest* request,
+                                     rbdgrad::v1::GetModelResponse* response) override;
+  grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
+                                          const rbdgrad::v1::GetServerInfoRequest* request,
+                                          rbdgrad::v1::GetServerInfoResponse* response) override;
+
+ private:
+  ComputeContext context_;
+  StreamRegistry streams_;
+  // the answers that never change, built once
+  rbdgrad::v1::ListModelsResponse list_models_;
+  rbdgrad::v1::GetServerInfoResponse server_info_;
+};
+
+/// GetModel's answer for one model: joints in model order with types, parents, links and limits,
+/// gravity and the summary text.
+rbdgrad::v1::GetModelResponse describe_model(const ServedModel& model);
+
+/// GetServerInfo's answer: every backend tried (ready or with the reason), plus "cpu", "cuda" and
+/// "fpga" as unavailable ("not configured") when they were not tried, and the limits.
+rbdgrad::v1::GetServerInfoResponse describe_server(const BackendPool& backends, const LimitsConfig& limits,
+                                                   const std::string& version);
+
+}  // namespace rbdgrad::server

@@ -1,0 +1,87 @@
+// Exclusive use of plugin instances: inline when free, else a FIFO served by one thread per instance.
+#include "instance_pool.hpp"
+
+#include <utility>
+
+namespace rbdgrad::server {
+
+InstancePool::InstancePool(std::vector<std::unique_ptr<PluginInstance>> instances, Options options)
+    : options_(options), instances_(std::move(instances)) {
+  free_.reserve(instances_.size());
+  for (const auto& instance : instances_) free_.push_back(instance.get());
+  threads_.reserve(instances_.size());
+  for (std::size_t i = 0; i < instances_.size(); ++i) threads_.emplace_back(&InstancePool::thread_loop, this);
+}
+
+InstancePool::~InstancePool() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  work_.notify_all();
+  for (std::thread& t : threads_) t.join();
+}
+
+bool InstancePool::take_work(PoolJob*& job, PluginInstance*& instance) {
+  if (head_ == nullptr || free_.empty()) return false;
+  job = std::exchange(head_, head_->next_);
+  if (head_ == nullptr) tail_ = nullptr;
+  job->next_ = nullptr;
+  instance = free_.back();
+  free_.pop_back();
+  return true;
+}
+
+void InstancePool::give_back(PluginInstance* instance) {
+  bool queued = false;
+  {
+    std::lock_guard lock(mutex_);
+    free_.push_back(instance);
+    queued = head_ != nullptr;
+  }
+  // a job queued while every instance was busy: a pool thread takes it now
+  if (queued) work_.notify_one();
+}
+
+void InstancePool::submit(PoolJob& job, std::uint64_t num_states) {
+  PluginInstance* instance = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    // inline only when nothing waits: a job never overtakes an earlier one
+    if (num_states <= options_.inline_max_states && head_ == nullptr && !free_.empty()) {
+      instance = free_.back();
+      free_.pop_back();
+    } else {
+      job.next_ = nullptr;
+      if (tail_ != nullptr) {
+        tail_->next_ = &job;
+      } else {
+        head_ = &job;
+      }
+      tail_ = &job;
+    }
+  }
+  if (instance == nullptr) {
+    work_.notify_one();
+    return;
+  }
+  job.run(*instance);
+  give_back(instance);
+}
+
+void InstancePool::thread_loop() {
+  for (;;) {
+    PoolJob* job = nullptr;
+    PluginInstance* instance = nullptr;
+    {
+      std::unique_lock lock(mutex_);
+      // stop only once the queue is empty: an accepted job is never dropped
+      work_.wait(lock, [&] { return take_work(job, instance) || (stop_ && head_ == nullptr); });
+      if (job == nullptr) return;
+    }
+    job->run(*instance);
+    give_back(instance);
+  }
+}
+
+}  // namespace rbdgrad::server

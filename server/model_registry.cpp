@@ -1,0 +1,86 @@
+// Loading the configured models (rbdgrad::cli::load_model does the embedded/URDF lookup).
+#include "model_registry.hpp"
+
+#include <Eigen/Core>
+#include <optional>
+#include <set>
+#include <utility>
+
+#include "model_source.hpp"
+#include "rbdgrad/embedded_robots.hpp"
+
+namespace rbdgrad::server {
+
+ServedModel::ServedModel(std::size_t index_in, std::string name_in, std::string origin_in, std::string source_in,
+                         Model model_in)
+    : index(index_in),
+      name(std::move(name_in)),
+      origin(std::move(origin_in)),
+      source(std::move(source_in)),
+      model(std::move(model_in)),
+      desc(model),
+      summary(model_summary(model)) {}
+
+namespace {
+
+Status load_one(const ModelConfig& cfg, std::size_t index, std::unique_ptr<const ServedModel>& out) {
+  const std::string where = "model '" + cfg.name + "'";
+  std::optional<Eigen::Vector3d> gravity;
+  if (cfg.gravity) gravity = Eigen::Vector3d((*cfg.gravity)[0], (*cfg.gravity)[1], (*cfg.gravity)[2]);
+
+  std::string spec;
+  std::string origin;
+  std::string source = "<embedded>";
+  if (!cfg.embedded.empty()) {
+    // load_model would fall back to a file of that name: an embedded source must be embedded
+    if (embedded_robot_urdf(cfg.embedded).empty()) {
+      return not_found(where + ": '" + cfg.embedded + "' is not an embedded robot (" + cli::embedded_robot_list() +
+                       ")");
+    }
+    spec = cfg.embedded;
+    origin = "embedded " + cfg.embedded;
+  } else if (!cfg.urdf.empty()) {
+    // and a path must be a file, even one called "iiwa14"
+    spec = cfg.urdf;
+    if (!embedded_robot_urdf(spec).empty()) spec = "./" + spec;
+    origin = "urdf " + cfg.urdf;
+    source = cfg.urdf;
+  } else {
+    return invalid_argument(where + " needs exactly one of 'urdf' or 'embedded'");
+  }
+
+  Model model;
+  if (Status s = cli::load_model(spec, gravity, model); !s) return {s.code(), where + ": " + s.message()};
+  out = std::make_unique<const ServedModel>(index, cfg.name, std::move(origin), std::move(source), std::move(model));
+  return Status::ok();
+}
+
+}  // namespace
+
+Status ModelRegistry::load(const std::vector<ModelConfig>& configs, ModelRegistry& out) {
+  if (configs.empty()) return invalid_argument("no models configured: the daemon needs at least one");
+  ModelRegistry loaded;
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < configs.size(); ++i) {
+    const ModelConfig& cfg = configs[i];
+    if (cfg.name.empty()) return invalid_argument("models[" + std::to_string(i) + "] has no name");
+    if (!names.insert(cfg.name).second) return invalid_argument("model name '" + cfg.name + "' is used twice");
+    std::unique_ptr<const ServedModel> model;
+    if (Status s = load_one(cfg, i, model); !s) return s;
+    if (!loaded.names_.empty()) loaded.names_ += ", ";
+    loaded.names_ += cfg.name;
+    loaded.models_.push_back(std::move(model));
+  }
+  out = std::move(loaded);
+  return Status::ok();
+}
+
+const ServedModel* ModelRegistry::find(std::string_view name) const noexcept {
+  // a handful of models: a linear scan beats hashing the name
+  for (const auto& m : models_) {
+    if (m->name == name) return m.get();
+  }
+  return nullptr;
+}
+
+}  // namespace rbdgrad::server

@@ -1,0 +1,147 @@
+// Tests for server/backend_pool.cpp: loading (the real CPU plugin, the fake "cuda" backend, a
+// missing plugin) and the routing of requests by backend hint and precision.
+#include "backend_pool.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace rbdgrad::server {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+const char* kMissingFpga = "/nonexistent/librbdgrad_fpga.so";
+
+class BackendPoolTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt}, {"hyq", "", "hyq", std::nullopt}},
+                                    models_).is_ok());
+  }
+
+  std::unique_ptr<BackendPool> make(std::vector<PluginConfig> plugins, std::string cpu = RBDGRAD_CPU_PLUGIN_PATH) {
+    BackendPool::Options options;
+    options.cpu_plugin_path = std::move(cpu);
+    options.plugins = std::move(plugins);
+    options.workers = 2;
+    return BackendPool::create(options, models_);
+  }
+
+  const BackendState* state(const BackendPool& pool, const std::string& name) {
+    for (const BackendState& s : pool.backends()) {
+      if (s.name == name) return &s;
+    }
+    return nullptr;
+  }
+
+  ModelRegistry models_;
+};
+
+TEST_F(BackendPoolTest, LoadsTheConfiguredPluginsAndTheCpuBackendRecordingFailures) {
+  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}}, {kMissingFpga, {}}});
+  ASSERT_EQ(pool->backends().size(), 3u);
+  EXPECT_EQ(pool->ready_count(), 2u);
+
+  const BackendState* cpu = state(*pool, "cpu");
+  ASSERT_NE(cpu, nullptr);
+  EXPECT_TRUE(cpu->ready);
+  EXPECT_EQ(cpu->path, RBDGRAD_CPU_PLUGIN_PATH);
+  EXPECT_EQ(cpu->options, "threads=2");  // from workers
+  EXPECT_EQ(cpu->info.precisions, 7u);
+
+  const BackendState* cuda = state(*pool, "cuda");
+  ASSERT_NE(cuda, nullptr);
+  EXPECT_TRUE(cuda->ready);
+  EXPECT_EQ(cuda->options, "device=0");  // no threads: that is the CPU backend's
+
+  const BackendState* fpga = state(*pool, "fpga");  // named after the file
+  ASSERT_NE(fpga, nullptr);
+  EXPECT_FALSE(fpga->ready);
+  EXPECT_THAT(fpga->reason, StartsWith(std::string("plugin ") + kMissingFpga + ": cannot load"));
+}
+
+TEST_F(BackendPoolTest, RoutesAutoToCpuAndResolvesAutoPrecisionToF64) {
+  auto pool = make({{FAKE_CUDA_PATH, {}}});
+  Route route;
+  ASSERT_TRUE(pool->route(*models_.find("hyq"), "", 0, route).is_ok());
+  EXPECT_EQ(route.backend->name, "cpu");
+  EXPECT_EQ(route.precision, RBDGRAD_PRECISION_F64);
+  EXPECT_NE(route.pool, nullptr);
+
+  ASSERT_TRUE(pool->route(*models_.find("hyq"), "cpu", RBDGRAD_PRECISION_FIXED_Q16_16, route).is_ok());
+  EXPECT_EQ(route.precision, RBDGRAD_PRECISION_FIXED_Q16_16);
+
+  Route cuda;
+  ASSERT_TRUE(pool->route(*models_.find("iiwa14"), "cuda", RBDGRAD_PRECISION_F32, cuda).is_ok());
+  EXPECT_EQ(cuda.backend->name, "cuda");
+  EXPECT_EQ(cuda.precision, RBDGRAD_PRECISION_F32);
+  // one pool per (model, backend)
+  Route cuda_hyq;
+  ASSERT_TRUE(pool->route(*models_.find("hyq"), "cuda", 0, cuda_hyq).is_ok());
+  EXPECT_NE(cuda.pool, cuda_hyq.pool);
+}
+
+TEST_F(BackendPoolTest, RefusesAPrecisionTheHintedBackendLacks) {
+  auto pool = make({{FAKE_CUDA_PATH, {}}});
+  Route route;
+  const Status s = pool->route(*models_.find("iiwa14"), "cuda", RBDGRAD_PRECISION_FIXED_Q16_16, route);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "backend cuda does not support precision fixed (it supports f64, f32)");
+}
+
+TEST_F(BackendPoolTest, AMissingBackendIsUnavailableWithTheReason) {
+  auto pool = make({{kMissingFpga, {}}});
+  Route route;
+  Status s = pool->route(*models_.find("iiwa14"), "cuda", 0, route);
+  EXPECT_EQ(s.code(), StatusCode::kUnavailable);
+  EXPECT_EQ(s.message(), "backend cuda is not available: not configured");
+
+  s = pool->route(*models_.find("iiwa14"), "fpga", 0, route);
+  EXPECT_EQ(s.code(), StatusCode::kUnavailable);
+  EXPECT_THAT(s.message(),
+              StartsWith(std::string("backend fpga is not available: plugin ") + kMissingFpga + ": cannot load:"));
+}
+
+TEST_F(BackendPoolTest, ABackendThatCannotCreateInstancesIsUnavailableNamingTheModel) {
+  auto pool = make({{FAKE_CUDA_PATH, {{"bogus", "1"}}}});
+  const BackendState* cuda = state(*pool, "cuda");
+  ASSERT_NE(cuda, nullptr);
+  EXPECT_FALSE(cuda->ready);
+  EXPECT_THAT(cuda->reason, HasSubstr("unknown option 'bogus'"));
+  ASSERT_EQ(cuda->model_problems.size(), 2u);
+  EXPECT_EQ(cuda->model_problems[0], "model 'iiwa14': cuda: unknown option 'bogus'");
+
+  Route route;
+  const Status s = pool->route(*models_.find("iiwa14"), "cuda", 0, route);
+  EXPECT_EQ(s.code(), StatusCode::kUnavailable);
+  EXPECT_EQ(s.message(), "backend cuda is not available for model 'iiwa14': cuda: unknown option 'bogus'");
+}
+
+TEST_F(BackendPoolTest, AConfiguredCpuPluginReplacesTheBuiltInOne) {
+  auto pool = make({{RBDGRAD_CPU_PLUGIN_PATH, {{"threads", "1"}}}}, "/nonexistent/librbdgrad_cpu.so");
+  ASSERT_EQ(pool->backends().size(), 1u);  // the built-in path was never tried
+  EXPECT_TRUE(pool->backends()[0].ready);
+  EXPECT_EQ(pool->backends()[0].options, "threads=1");
+}
+
+TEST_F(BackendPoolTest, NothingReadyWithoutAnyLoadablePlugin) {
+  auto pool = make({}, "/nonexistent/librbdgrad_cpu.so");
+  EXPECT_EQ(pool->ready_count(), 0u);
+  Route route;
+  EXPECT_EQ(pool->route(*models_.find("iiwa14"), "", 0, route).code(), StatusCode::kUnavailable);
+  EXPECT_THAT(pool->route(*models_.find("iiwa14"), "cpu", 0, route).message(),
+              StartsWith("backend cpu is not available: plugin /nonexistent/librbdgrad_cpu.so: cannot load: "));
+}
+
+TEST(BackendNames, FromPathsAndPrecisionLists) {
+  EXPECT_EQ(backend_name_from_path("/usr/lib/rbdgrad/librbdgrad_cuda.so"), "cuda");
+  EXPECT_EQ(backend_name_from_path("librbdgrad_fpga.so.1"), "fpga");
+  EXPECT_EQ(backend_name_from_path("/x/fake_thing.so"), "fake_thing");
+  EXPECT_EQ(precision_list(RBDGRAD_PRECISION_F64 | RBDGRAD_PRECISION_F32), "f64, f32");
+  EXPECT_EQ(precision_list(7), "f64, f32, fixed");
+  EXPECT_EQ(precision_list(0), "none");
+}
+
+}  // namespace
+}  // namespace rbdgrad::server

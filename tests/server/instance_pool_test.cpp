@@ -1,0 +1,128 @@
+// Tests for server/instance_pool.cpp, with instances of the fake_ok backend.
+#include "instance_pool.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace rbdgrad::server {
+namespace {
+
+// instances of fake_ok (it reads only nv from the model)
+std::vector<std::unique_ptr<PluginInstance>> fake_instances(std::size_t count, std::unique_ptr<Plugin>& plugin) {
+  std::vector<std::unique_ptr<PluginInstance>> out;
+  if (!Plugin::load(FAKE_OK_PATH, plugin).is_ok()) return out;
+  rbdgrad_model_desc model{};
+  model.struct_size = sizeof(model);
+  model.name = "two";
+  model.nv = 2;
+  for (std::size_t i = 0; i < count; ++i) {
+    std::unique_ptr<PluginInstance> instance;
+    if (!plugin->create_instance(model, {}, instance).is_ok()) return {};
+    out.push_back(std::move(instance));
+  }
+  return out;
+}
+
+// Records where and in which order it ran, and whether its instance was in use by another job.
+struct Recorder {
+  std::mutex mutex;
+  std::vector<int> order;
+  std::map<PluginInstance*, std::atomic<int>> busy;
+  std::atomic<int> overlaps{0};
+};
+
+class RecordingJob final : public PoolJob {
+ public:
+  RecordingJob(int id, Recorder& recorder, std::chrono::microseconds work = {}) : id_(id), rec_(recorder), work_(work) {}
+  void run(PluginInstance& instance) noexcept override {
+    ran_on = std::this_thread::get_id();
+    std::atomic<int>* busy = nullptr;
+    {
+      std::lock_guard lock(rec_.mutex);
+      rec_.order.push_back(id_);
+      busy = &rec_.busy[&instance];
+    }
+    if (busy->fetch_add(1) != 0) ++rec_.overlaps;
+    if (work_.count() > 0) std::this_thread::sleep_for(work_);
+    busy->fetch_sub(1);
+    done = true;
+  }
+  std::thread::id ran_on;
+  std::atomic<bool> done{false};
+
+ private:
+  int id_;
+  Recorder& rec_;
+  std::chrono::microseconds work_;
+};
+
+TEST(InstancePool, RunsSmallJobsInlineAndLargeOnesOnItsThread) {
+  std::unique_ptr<Plugin> plugin;
+  auto instances = fake_instances(1, plugin);
+  ASSERT_EQ(instances.size(), 1u);
+  Recorder rec;
+  InstancePool pool(std::move(instances), InstancePool::Options{16});
+  EXPECT_EQ(pool.size(), 1u);
+
+  RecordingJob small(0, rec);
+  pool.submit(small, 16);
+  EXPECT_TRUE(small.done);  // ran before submit returned
+  EXPECT_EQ(small.ran_on, std::this_thread::get_id());
+
+  RecordingJob large(1, rec);
+  pool.submit(large, 17);
+  while (!large.done) std::this_thread::yield();
+  EXPECT_NE(large.ran_on, std::this_thread::get_id());
+}
+
+TEST(InstancePool, QueuedJobsRunInSubmissionOrder) {
+  std::unique_ptr<Plugin> plugin;
+  auto instances = fake_instances(1, plugin);
+  ASSERT_EQ(instances.size(), 1u);
+  Recorder rec;
+  std::vector<std::unique_ptr<RecordingJob>> jobs;
+  {
+    InstancePool pool(std::move(instances), InstancePool::Options{0});  // never inline
+    for (int i = 0; i < 50; ++i) {
+      jobs.push_back(std::make_unique<RecordingJob>(i, rec, std::chrono::microseconds(i % 3 == 0 ? 200 : 0)));
+      pool.submit(*jobs.back(), 1);
+    }
+  }  // the destructor runs what is still queued before it returns
+  std::vector<int> expected(50);
+  for (int i = 0; i < 50; ++i) expected[i] = i;
+  EXPECT_EQ(rec.order, expected);
+}
+
+TEST(InstancePool, NeverRunsTwoJobsOnOneInstanceAtOnce) {
+  std::unique_ptr<Plugin> plugin;
+  auto instances = fake_instances(2, plugin);
+  ASSERT_EQ(instances.size(), 2u);
+  Recorder rec;
+  constexpr int kThreads = 4, kPerThread = 100;
+  std::vector<std::unique_ptr<RecordingJob>> jobs;
+  for (int i = 0; i < kThreads * kPerThread; ++i) {
+    jobs.push_back(std::make_unique<RecordingJob>(i, rec, std::chrono::microseconds(i % 7 == 0 ? 50 : 0)));
+  }
+  {
+    InstancePool pool(std::move(instances), InstancePool::Options{});
+    std::vector<std::thread> submitters;
+    for (int t = 0; t < kThreads; ++t) {
+      submitters.emplace_back([&, t] {
+        // a mix of inline-sized and queued jobs
+        for (int i = 0; i < kPerThread; ++i) pool.submit(*jobs[t * kPerThread + i], i % 2 == 0 ? 1 : 100000);
+      });
+    }
+    for (std::thread& t : submitters) t.join();
+  }
+  EXPECT_EQ(rec.order.size(), static_cast<std::size_t>(kThreads * kPerThread));
+  EXPECT_EQ(rec.overlaps.load(), 0);
+}
+
+}  // namespace
+}  // namespace rbdgrad::server

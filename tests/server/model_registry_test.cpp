@@ -1,0 +1,91 @@
+// Tests for server/model_registry.cpp.
+#include "model_registry.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "rbdgrad/embedded_robots.hpp"
+
+namespace rbdgrad::server {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+ModelConfig embedded(const std::string& name, const std::string& robot) { return {name, "", robot, std::nullopt}; }
+
+TEST(ModelRegistry, LoadsEmbeddedRobotsInOrderWithTheirDescriptions) {
+  ModelRegistry registry;
+  ModelConfig panda = embedded("arm", "panda");
+  panda.gravity = std::array<double, 3>{0.0, 0.0, -1.62};
+  const Status s = ModelRegistry::load({embedded("iiwa14", "iiwa14"), panda}, registry);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(registry.size(), 2u);
+  EXPECT_EQ(registry.names(), "iiwa14, arm");
+
+  const ServedModel* arm = registry.find("arm");
+  ASSERT_NE(arm, nullptr);
+  EXPECT_EQ(arm->index, 1u);
+  EXPECT_EQ(arm->origin, "embedded panda");
+  EXPECT_EQ(arm->source, "<embedded>");
+  EXPECT_EQ(arm->model.name, "panda");
+  EXPECT_EQ(arm->model.gravity.z(), -1.62);
+  // the ABI description is the same model, and points into the registry's own storage
+  EXPECT_EQ(arm->desc.desc().nv, static_cast<uint32_t>(arm->model.nv));
+  EXPECT_EQ(arm->desc.desc().gravity[2], -1.62);
+  EXPECT_THAT(arm->summary, StartsWith("model 'panda'"));
+
+  EXPECT_EQ(registry.find("iiwa14")->model.nv, 7);
+  EXPECT_EQ(registry.find("panda"), nullptr);  // only the served name counts
+}
+
+TEST(ModelRegistry, LoadsAUrdfFileEvenWhenNamedLikeAnEmbeddedRobot) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("rbdgrad_model_registry_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path file = dir / "arm.urdf";
+  std::ofstream(file) << embedded_robot_urdf("iiwa14");
+
+  ModelRegistry registry;
+  Status s = ModelRegistry::load({{"arm", file.string(), "", std::nullopt}}, registry);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(registry.find("arm")->source, file.string());
+  EXPECT_EQ(registry.find("arm")->origin, "urdf " + file.string());
+
+  // "iiwa14" as a urdf path is a file in the working directory, which does not exist
+  s = ModelRegistry::load({{"x", "iiwa14", "", std::nullopt}}, registry);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_THAT(s.message(), StartsWith("model 'x': "));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ModelRegistry, ErrorsNameTheModelAndKeepTheOldContents) {
+  ModelRegistry registry;
+  ASSERT_TRUE(ModelRegistry::load({embedded("iiwa14", "iiwa14")}, registry).is_ok());
+
+  Status s = ModelRegistry::load({embedded("a", "no_such_robot")}, registry);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_EQ(s.message(), "model 'a': 'no_such_robot' is not an embedded robot (hyq, iiwa14, panda, talos_reduced)");
+
+  s = ModelRegistry::load({{"b", "/nonexistent/robot.urdf", "", std::nullopt}}, registry);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_THAT(s.message(), StartsWith("model 'b': "));
+  EXPECT_THAT(s.message(), HasSubstr("/nonexistent/robot.urdf"));
+
+  s = ModelRegistry::load({embedded("a", "iiwa14"), embedded("a", "panda")}, registry);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "model name 'a' is used twice");
+
+  EXPECT_EQ(ModelRegistry::load({}, registry).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(ModelRegistry::load({{"c", "", "", std::nullopt}}, registry).code(), StatusCode::kInvalidArgument);
+
+  // failed loads left the registry as it was
+  EXPECT_EQ(registry.names(), "iiwa14");
+}
+
+}  // namespace
+}  // namespace rbdgrad::server
