@@ -8,7 +8,12 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 REFERENCE_DIR="$SOURCE_DIR/tests/data/reference"
 WORK="$(mktemp -d "${TMPDIR:-/tmp}/rbdgrad-cli-test.XXXXXX")"
-trap 'rm -rf "$WORK"' EXIT
+DAEMON_PID=""
+cleanup() {
+  if [[ -n "$DAEMON_PID" ]]; then kill -KILL "$DAEMON_PID" 2>/dev/null || true; fi
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
 
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
@@ -196,6 +201,173 @@ case_daemon_signal() {
   local rc=0; wait "$pid" || rc=$?
   [[ $rc -eq 0 ]] || fail "rbdgradd exit code $rc after SIGTERM"
   expect_in "$WORK/log" "shutting down"
+}
+
+# --- the daemon's commands (info, models, compute) ----------------------------------------------
+
+# start_daemon [RBDGRADD FLAGS...]: rbdgradd on an ephemeral loopback port; sets SERVER to its address
+start_daemon() {
+  "$RBDGRADD" --listen 127.0.0.1:0 --unix-socket "" --ready-file "$WORK/ready" "$@" >"$WORK/daemon.log" 2>&1 &
+  DAEMON_PID=$!
+  for _ in $(seq 200); do
+    [[ -s "$WORK/ready" ]] && break
+    kill -0 "$DAEMON_PID" 2>/dev/null || fail "rbdgradd exited at start: $(cat "$WORK/daemon.log")"
+    sleep 0.05
+  done
+  SERVER=$(awk '$1 == "tcp" { print $2; exit }' "$WORK/ready" 2>/dev/null || true)
+  [[ -n "$SERVER" ]] || fail "rbdgradd wrote no tcp address to its ready file: $(cat "$WORK/daemon.log")"
+}
+
+# stop_daemon: SIGTERM, and the daemon must exit 0
+stop_daemon() {
+  kill -TERM "$DAEMON_PID"
+  local rc=0; wait "$DAEMON_PID" || rc=$?
+  DAEMON_PID=""
+  [[ $rc -eq 0 ]] || fail "rbdgradd exit code $rc after SIGTERM: $(tail -5 "$WORK/daemon.log")"
+}
+
+# usage errors exit 2; an absent server is a failed call (exit 1, the gRPC code), not a usage error
+case_server_commands_usage() {
+  local none=127.0.0.1:1   # nothing listens on port 1 of the loopback
+  expect_exit 2 "$RBDGRAD" compute --server "$none"
+  expect_in "$WORK/stderr" "--n or --in is required"
+  expect_exit 2 "$RBDGRAD" compute --n 4 --in x.jsonl
+  expect_in "$WORK/stderr" "give --n or --in, not both"
+  expect_exit 2 "$RBDGRAD" compute --n 0
+  expect_in "$WORK/stderr" "--n: '0' is not a positive number of states"
+  expect_exit 2 "$RBDGRAD" compute --n 4 --precision f16
+  expect_in "$WORK/stderr" "unknown precision 'f16'"
+  expect_exit 2 "$RBDGRAD" compute --n 4 --backend tpu
+  expect_in "$WORK/stderr" "unknown backend 'tpu'"
+  expect_exit 2 "$RBDGRAD" compute --n 4 --outputs qdd,jacobian
+  expect_in "$WORK/stderr" "unknown output 'jacobian'"
+  expect_exit 2 "$RBDGRAD" compute --n 4 --output-type f16
+  expect_exit 2 "$RBDGRAD" compute --n 4 --input force
+  expect_exit 2 "$RBDGRAD" compute --in x.jsonl --seed 3
+  expect_in "$WORK/stderr" "--seed goes with --n"
+  expect_exit 2 "$RBDGRAD" --server "$none" compute --server "$none" --n 4
+  expect_in "$WORK/stderr" "option '--server' given twice"
+  expect_exit 2 "$RBDGRAD" --server
+  expect_exit 2 "$RBDGRAD" --server "$none"
+  expect_exit 2 "$RBDGRAD" --server "$none" eval --in x --out y
+  expect_in "$WORK/stderr" "unknown option '--server'"
+  expect_exit 2 "$RBDGRAD" info --bogus
+  expect_exit 2 "$RBDGRAD" models --timeout -1
+  expect_exit 0 "$RBDGRAD" compute --help
+  expect_in "$WORK/stdout" "--precision auto|f64|f32|fixed"
+  expect_exit 0 "$RBDGRAD" --help
+  expect_in "$WORK/stdout" "compute"
+  # no server: the call fails with the gRPC code, before or after the command alike
+  expect_exit 1 "$RBDGRAD" --server "$none" compute --n 4
+  expect_in "$WORK/stderr" "UNAVAILABLE"
+  expect_exit 1 "$RBDGRAD" compute --n 4 --server="$none"
+  expect_in "$WORK/stderr" "UNAVAILABLE"
+  expect_exit 1 "$RBDGRAD" info --server "$none"
+  expect_in "$WORK/stderr" "rbdgrad info: UNAVAILABLE"
+  expect_exit 1 "$RBDGRAD" models --server "unix:$WORK/no.sock"
+  expect_in "$WORK/stderr" "rbdgrad models: UNAVAILABLE"
+}
+
+# info and models describe the running daemon
+case_daemon_info_models() {
+  start_daemon
+  expect_exit 0 "$RBDGRAD" --server "$SERVER" info
+  expect_in "$WORK/stdout" "server $SERVER: rbdgrad 0."
+  expect_in "$WORK/stdout" "cpu: ready, precisions f64"
+  expect_in "$WORK/stdout" "states per request"
+  expect_exit 0 "$RBDGRAD" models --server "$SERVER"
+  expect_in "$WORK/stdout" "NAME"
+  grep -qE '^iiwa14 +7 ' "$WORK/stdout" || fail "models: $(cat "$WORK/stdout")"
+  stop_daemon
+}
+
+# the issue's first request: random states, a summary with timings and checks
+case_daemon_compute_random() {
+  start_daemon
+  expect_exit 0 "$RBDGRAD" --server "$SERVER" compute --model iiwa14 --n 64
+  expect_in "$WORK/stdout" "model iiwa14 (nv 7) on $SERVER: 64 of 64 states computed in 1 request"
+  expect_in "$WORK/stdout" "backend cpu, precision f64"
+  expect_in "$WORK/stdout" "server timings: queue"
+  expect_in "$WORK/stdout" "client round trip:"
+  expect_in "$WORK/stdout" "checks: all outputs finite"
+  # the same seed gives the same results; the file is eval's format
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --n 16 --seed 5 --out "$WORK/a.jsonl"
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --n 16 --seed 5 --out "$WORK/b.jsonl" --precision f32 --output-type f32
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --n 16 --seed 5 --out "$WORK/c.jsonl"
+  cmp -s <(tail -n +2 "$WORK/a.jsonl") <(tail -n +2 "$WORK/c.jsonl") || fail "same seed, other results"
+  "$PYTHON" - "$WORK/a.jsonl" "$WORK/b.jsonl" <<'PY'
+import json, math, sys
+(ha, *a), (hb, *b) = ([json.loads(l) for l in open(p)] for p in sys.argv[1:3])
+assert ha["nv"] == 7 and ha["precision"] == "f64" and hb["precision"] == "f32", (ha, hb)
+assert ha["outputs"] == ["qdd", "M", "Minv", "dqdd_dq", "dqdd_dqd", "tau_id", "dtau_dq", "dtau_dqd"], ha["outputs"]
+assert len(a) == 16 and [s["index"] for s in a] == list(range(16)), len(a)
+for sa, sb in zip(a, b):
+    assert sa["kind"] == "random" and len(sa["dqdd_dq"]) == 49, sa.keys()
+    for k in ha["outputs"]:  # f32 agrees with f64 to float accuracy
+        d = math.sqrt(sum((x - y) ** 2 for x, y in zip(sa[k], sb[k])))
+        assert d <= 1e-3 * (1 + math.sqrt(sum(x * x for x in sa[k]))), (k, d)
+print("OK")
+PY
+  # qdd input and a subset of outputs
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --n 8 --input qdd --outputs tau_id,dtau_dq --out "$WORK/d.jsonl"
+  "$PYTHON" -c 'import json,sys; h,*s=[json.loads(l) for l in open(sys.argv[1])]; assert h["outputs"]==["tau_id","dtau_dq"]; assert set(s[0])=={"index","kind","tau_id","dtau_dq"}, s[0]' "$WORK/d.jsonl"
+  # an unknown model: the server's code and message
+  expect_exit 1 "$RBDGRAD" compute --server "$SERVER" --model no_such_robot --n 4
+  expect_in "$WORK/stderr" "NOT_FOUND"
+  expect_in "$WORK/stderr" "no_such_robot"
+  stop_daemon
+}
+
+# the Pinocchio reference through the daemon, like eval; f64 results equal eval's exactly
+#   daemon_compute_reference ROBOT PRECISION OUTPUT_TYPE TOL [compare_results.py options]
+case_daemon_compute_reference() {
+  local robot=$1 precision=$2 output_type=$3 tol=$4; shift 4
+  start_daemon --model "$robot"
+  # the name the daemon serves the robot under: its only model
+  expect_exit 0 "$RBDGRAD" models --server "$SERVER"
+  local served; served=$(awk 'NR == 2 { print $1 }' "$WORK/stdout")
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --model "$served" --in "$REFERENCE_DIR/$robot.jsonl" \
+    --out "$WORK/out.jsonl" --precision "$precision" --output-type "$output_type"
+  expect_in "$WORK/stdout" "32 of 32 states computed"
+  "$PYTHON" "$HERE/compare_results.py" "$WORK/out.jsonl" "$REFERENCE_DIR/$robot.jsonl" --tol "$tol" \
+    --precision "$precision" --outputs qdd,M,Minv,dqdd_dq,dqdd_dqd,tau_id,dtau_dq,dtau_dqd "$@"
+  if [[ $precision == f64 && $output_type == f64 ]]; then
+    expect_exit 0 "$RBDGRAD" eval --model "$robot" --in "$REFERENCE_DIR/$robot.jsonl" --out "$WORK/eval.jsonl"
+    cmp -s <(tail -n +2 "$WORK/out.jsonl") <(tail -n +2 "$WORK/eval.jsonl") \
+      || fail "compute's f64 results differ from eval's (in-process core)"
+  fi
+  stop_daemon
+}
+
+# a bad state is rejected before sending, a state the server refuses (Q16.16 overflow) gets the
+# server's error, and every other state is still computed: the same states fail as with eval, the
+# others have eval's values; exit 1
+case_daemon_compute_bad_states() {
+  make_states iiwa14 6 '
+states[1]["qd"][2] = float("nan")
+states[4]["qd"] = [900.0] * 7          # Q16.16 overflows' "$WORK/in.jsonl"
+  expect_exit 1 "$RBDGRAD" eval --in "$WORK/in.jsonl" --out "$WORK/eval.jsonl" --precision fixed --outputs M,qdd
+  start_daemon
+  expect_exit 1 "$RBDGRAD" compute --server "$SERVER" --in "$WORK/in.jsonl" --out "$WORK/out.jsonl" --precision fixed \
+    --outputs M,qdd
+  expect_in "$WORK/stdout" "states failed"
+  "$PYTHON" - "$WORK/out.jsonl" "$WORK/eval.jsonl" <<'PY'
+import json, sys
+(header, *states), (_, *evals) = ([json.loads(l) for l in open(p)] for p in sys.argv[1:3])
+by_index = {s["index"]: s for s in states}
+assert sorted(by_index) == list(range(6)), sorted(by_index)
+assert header["precision"] == "fixed", header
+assert by_index[1] == {"index": 1, "error": "state 1: field 'qd' element 2 is not finite (nan)"}, by_index[1]
+assert by_index[4]["error"].startswith("state 4: ") and "overflow" in by_index[4]["error"], by_index[4]
+failed = {s["index"] for s in states if "error" in s}
+assert failed == {s["index"] for s in evals if "error" in s}, failed
+assert len(failed) < 6, "no state computed"
+for e in evals:
+    if "error" not in e:
+        assert by_index[e["index"]] == e, (by_index[e["index"]], e)
+print("OK")
+PY
+  stop_daemon
 }
 
 name=${1:?usage: cli_test.sh CASE [ARGS...]}; shift

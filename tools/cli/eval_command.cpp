@@ -1,9 +1,9 @@
+// `rbdgrad eval`: options, the loop over the states of a file, the results file.
 #include "eval_command.hpp"
 
 #include <cstdio>
 #include <fstream>
 #include <iostream>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -11,6 +11,7 @@
 #include "args.hpp"
 #include "evaluator.hpp"
 #include "model_source.hpp"
+#include "result_header.hpp"
 #include "rbdgrad/fixed_point.hpp"
 #include "rbdgrad/io/state_file.hpp"
 
@@ -83,29 +84,19 @@ std::string parse_options(const Args& args, EvalOptions& o) {
 
 // The result file's first line: what was computed, with which model, in which order.
 std::string header_json(const Model& model, const EvalOptions& o, std::size_t n_states) {
-  nlohmann::ordered_json h;  // keys in the order written, like the reference headers
-  h["robot"] = model.name;
-  h["source"] = model.source;
-  h["nq"] = model.nv;
-  h["nv"] = model.nv;
-  std::vector<std::string> names;
-  for (const JointInfo& j : model.joints) names.push_back(j.name);
-  h["joint_names"] = names;
-  h["gravity"] = {model.gravity.x(), model.gravity.y(), model.gravity.z()};
-  h["precision"] = o.precision;
-  std::vector<std::string> outputs;
+  ResultHeader h;
+  h.robot = model.name;
+  h.source = model.source;
+  h.nv = model.nv;
+  for (const JointInfo& j : model.joints) h.joint_names.push_back(j.name);
+  h.gravity = {model.gravity.x(), model.gravity.y(), model.gravity.z()};
+  h.precision = o.precision;
   for (int k = 0; k < kNumOutputs; ++k)
-    if (o.outputs[static_cast<std::size_t>(k)]) outputs.emplace_back(kOutputNames[static_cast<std::size_t>(k)]);
-  h["outputs"] = outputs;
-  h["input"] = o.in;
-  h["n_states"] = n_states;
-  h["generator"] = std::string("rbdgrad eval ") + RBDGRAD_VERSION;
-  h["convention"] =
-      "Joint order = joint_names (Pinocchio's depth-first order). Matrices are nv x nv, row-major: element (i,j) "
-      "at index i*nv+j; d(a)/d(b) has row i = a_i, column j = b_j. qdd = FD(q,qd,tau) when the state has tau, "
-      "else the input qdd; tau_id = RNEA(q,qd,qdd) and dtau_dq, dtau_dqd are evaluated at that qdd. Computed in "
-      "the given precision, written as float64 with 17 significant digits.";
-  return h.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+    if (o.outputs[static_cast<std::size_t>(k)]) h.outputs.emplace_back(kOutputNames[static_cast<std::size_t>(k)]);
+  h.input = o.in;
+  h.n_states = n_states;
+  h.generator = std::string("rbdgrad eval ") + RBDGRAD_VERSION;
+  return dump_header(result_header_json(h));
 }
 
 // Mismatches between the input's header and the model do not stop the run (each state is checked),

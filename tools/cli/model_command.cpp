@@ -1,3 +1,4 @@
+// `rbdgrad model`: loads a robot model and prints its summary.
 #include "model_command.hpp"
 
 #include <iostream>

@@ -1,0 +1,154 @@
+// rbdgrad::Client, the C++ client of the rbdgrad service (the daemon rbdgradd): batched
+// rigid-body dynamics and their gradients over gRPC, without any gRPC or protobuf type in the API.
+//
+//   rbdgrad::Client client("unix:/tmp/rbdgradd.sock");
+//   rbdgrad::ComputeRequest req;
+//   req.model = "iiwa14";
+//   req.num_states = n;
+//   req.outputs = rbdgrad::Output::kDqddDq | rbdgrad::Output::kDqddDqd;
+//   req.q = q; req.qd = qd; req.u = tau;            // n x nv each, state-major
+//   rbdgrad::ComputeResult r = client.compute(req);  // throws rbdgrad::ClientError
+//   Eigen::MatrixXd g = r.dqdd_dq(0);                // a view; copy only if you keep it
+//
+// Calls: compute (sync: throwing, or returning an RpcStatus), compute_async (a std::future, or a
+// callback on a gRPC thread; no thread per call), ComputeSession (one long-lived stream for a
+// control loop: one request per step, responses in order, buffers reused), list_models,
+// get_model, server_info. Every call has a deadline: its own timeout, else the client's default.
+//
+// Threads: a Client may be used from any number of threads at once (they share one channel, i.e.
+// one connection). A ComputeSession is used by one thread at a time.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <future>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rbdgrad/client_export.hpp"
+#include "rbdgrad/compute_result.hpp"
+#include "rbdgrad/compute_types.hpp"
+#include "rbdgrad/rpc_status.hpp"
+#include "rbdgrad/service_info.hpp"
+
+namespace rbdgrad {
+
+// The daemon's default TCP address (loopback). The daemon also listens on the Unix socket
+// kDefaultUnixSocketAddress, the faster transport for processes on the same host: prefer it there.
+inline constexpr std::string_view kDefaultServerAddress = "127.0.0.1:50051";
+inline constexpr std::string_view kDefaultUnixSocketAddress = "unix:/tmp/rbdgradd.sock";
+
+struct ClientOptions {
+  // Deadline of a call that does not set its own timeout. Default 10 s.
+  std::chrono::nanoseconds default_timeout = std::chrono::seconds(10);
+  // Largest message sent or received, in bytes (the daemon's default limit is the same). Default 256 MiB.
+  std::int64_t max_message_bytes = std::int64_t{256} << 20;
+  // false: a call fails at once with UNAVAILABLE when no server answers at the address.
+  // true: a call waits for the server until its deadline (DEADLINE_EXCEEDED). Default false.
+  bool wait_for_ready = false;
+};
+
+struct SessionOptions {
+  // Deadline of each step that does not set its own timeout; empty = ClientOptions::default_timeout.
+  // A step past its deadline ends the session (DEADLINE_EXCEEDED).
+  std::optional<std::chrono::nanoseconds> step_timeout;
+  // Deadline of the whole stream from open_session; empty = none (a control loop runs for hours).
+  std::optional<std::chrono::nanoseconds> lifetime;
+};
+
+// A ComputeStream for a control loop: each step sends one request and waits for its response
+// (responses come in order). The request and response messages are reused from step to step, so
+// a step allocates nothing once the sizes are stable. After an error the session is closed: the
+// server ends the stream at the first failed request; open a new session to go on.
+// Not thread-safe: one thread at a time.
+class RBDGRAD_CLIENT_EXPORT ComputeSession {
+ public:
+  ComputeSession();  // a closed session; Client::open_session gives an open one
+  ~ComputeSession();  // closes, as close() does
+  ComputeSession(ComputeSession&&) noexcept;
+  ComputeSession& operator=(ComputeSession&&) noexcept;
+  ComputeSession(const ComputeSession&) = delete;
+  ComputeSession& operator=(const ComputeSession&) = delete;
+
+  /// Sends `req` and returns its result: a reference to the session's own result, valid until the
+  /// next step or close. Throws ClientError (the server's code and message; FAILED_PRECONDITION
+  /// when the session is closed).
+  const ComputeResult& step(const ComputeRequest& req);
+  /// Same without exceptions: fills `out` (reusing its buffers) and returns the status.
+  RpcStatus step(const ComputeRequest& req, ComputeResult& out);
+
+  /// Ends the stream: tells the server no more requests come and waits for its final status
+  /// (bounded by the step timeout). Returns that status, or the error that ended the session.
+  /// Further calls return the same status.
+  RpcStatus close();
+  bool is_open() const noexcept;
+
+  struct State;
+
+ private:
+  friend class Client;
+  explicit ComputeSession(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+  ComputeResult result_;  // what step(req) returns
+};
+
+class RBDGRAD_CLIENT_EXPORT Client {
+ public:
+  // Called once per asynchronous call, on a gRPC thread: keep it short (hand the result to your
+  // own thread) and do not throw. `result` is valid only when `status` is ok.
+  using ComputeCallback = std::function<void(RpcStatus status, ComputeResult result)>;
+
+  /// \param address  a gRPC target: "127.0.0.1:50051", "localhost:50051", "unix:/path/to.sock".
+  ///                 Connecting is lazy: constructing never fails, the first call reports an
+  ///                 unreachable server (UNAVAILABLE).
+  explicit Client(std::string address = std::string(kDefaultServerAddress), ClientOptions options = {});
+  ~Client();
+  Client(Client&&) noexcept;
+  Client& operator=(Client&&) noexcept;
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  const std::string& address() const noexcept;
+  const ClientOptions& options() const noexcept;
+
+  /// One batch, synchronously. Throws ClientError with the server's code and message.
+  ComputeResult compute(const ComputeRequest& req) const;
+  /// Same without exceptions: fills `out`, reusing its buffers, and returns the status (on an
+  /// error `out` is left invalid).
+  RpcStatus compute(const ComputeRequest& req, ComputeResult& out) const;
+
+  /// Starts the call and returns at once; the future's get() returns the result or throws
+  /// ClientError.
+  std::future<ComputeResult> compute_async(const ComputeRequest& req) const;
+  /// Starts the call and returns at once; `done` runs when it completes (see ComputeCallback).
+  void compute_async(const ComputeRequest& req, ComputeCallback done) const;
+
+  /// Opens a ComputeStream. Does not wait for the server: an unreachable server shows at the
+  /// first step.
+  ComputeSession open_session(const SessionOptions& options = {}) const;
+
+  /// The models the server serves. Throws ClientError.
+  std::vector<ServedModel> list_models(std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  /// One model's joints (names, types, parents, limits) and gravity. Throws ClientError
+  /// (NOT_FOUND for an unknown model).
+  ModelDescription get_model(const std::string& name, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  /// The server's version, backends and limits. Throws ClientError.
+  ServerInfo server_info(std::optional<std::chrono::nanoseconds> timeout = {}) const;
+
+  // The same three without exceptions.
+  RpcStatus list_models(std::vector<ServedModel>& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  RpcStatus get_model(const std::string& name, ModelDescription& out,
+                      std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  RpcStatus server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rbdgrad

@@ -1,0 +1,66 @@
+// What the rbdgrad service says about itself: the models it serves (Client::list_models,
+// Client::get_model) and its version, backends and limits (Client::server_info).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rbdgrad/compute_types.hpp"
+
+namespace rbdgrad {
+
+// One entry of Client::list_models.
+struct ServedModel {
+  std::string name;    // the name requests use
+  int nv = 0;          // number of moving joints
+  std::string source;  // URDF path on the server, or "<embedded>"
+};
+
+// One moving joint, in the model's joint order.
+struct JointDescription {
+  std::string name;
+  std::string type;         // "revolute", "continuous" or "prismatic"
+  int parent = -1;          // index of the parent joint, -1 for the fixed root
+  std::string parent_link;  // URDF links
+  std::string child_link;
+  double lower_limit = 0;   // rad or m; both 0 when the URDF gives none
+  double upper_limit = 0;
+  double effort_limit = 0;  // N m or N; 0 when unknown
+  double velocity_limit = 0;
+
+  // True when the URDF gives a position range (lower < upper).
+  bool has_position_limits() const noexcept { return lower_limit < upper_limit; }
+};
+
+// Client::get_model.
+struct ModelDescription {
+  std::string name;
+  int nv = 0;
+  std::vector<JointDescription> joints;  // (nv) in the model's joint order (the arrays' order)
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // world frame, m/s^2
+  std::string summary;                   // human-readable, several lines
+};
+
+// One backend of the server, ready or not.
+struct BackendStatus {
+  Backend backend = Backend::kAuto;   // kCpu, kCuda, kFpga; kAuto for one the client does not know
+  std::string name;                   // "cpu", ...
+  bool ready = false;
+  std::string reason;                 // why it is unavailable, when not ready
+  std::vector<Precision> precisions;  // what it computes in
+  std::uint64_t max_batch = 0;        // largest N per computation; 0 = no limit
+};
+
+// Client::server_info.
+struct ServerInfo {
+  std::string version;
+  std::vector<BackendStatus> backends;
+  std::uint32_t max_states_per_request = 0;
+  std::uint64_t max_message_bytes = 0;
+  std::uint32_t max_concurrent_requests = 0;
+};
+
+}  // namespace rbdgrad

@@ -1,0 +1,48 @@
+// ListModels / GetModel / GetServerInfo responses -> ServedModel, ModelDescription, ServerInfo.
+#include "info_decoding.hpp"
+
+#include "request_encoding.hpp"
+
+namespace rbdgrad::detail {
+
+std::vector<ServedModel> decode(const v1::ListModelsResponse& r) {
+  std::vector<ServedModel> out;
+  out.reserve(static_cast<std::size_t>(r.models_size()));
+  for (const v1::ModelSummary& m : r.models()) out.push_back({m.name(), static_cast<int>(m.nv()), m.source()});
+  return out;
+}
+
+ModelDescription decode(const v1::GetModelResponse& r) {
+  ModelDescription d;
+  d.name = r.name();
+  d.nv = static_cast<int>(r.nv());
+  d.joints.reserve(static_cast<std::size_t>(r.joints_size()));
+  for (const v1::Joint& j : r.joints())
+    d.joints.push_back({j.name(), j.type(), j.parent(), j.parent_link(), j.child_link(), j.lower_limit(),
+                        j.upper_limit(), j.effort_limit(), j.velocity_limit()});
+  // a server that sends no gravity leaves zeros rather than a guess
+  for (int i = 0; i < 3 && i < r.gravity_size(); ++i) d.gravity(i) = r.gravity(i);
+  d.summary = r.summary();
+  return d;
+}
+
+ServerInfo decode(const v1::GetServerInfoResponse& r) {
+  ServerInfo info;
+  info.version = r.version();
+  for (const v1::BackendInfo& b : r.backends()) {
+    BackendStatus s;
+    s.backend = from_proto(b.backend());
+    s.name = b.name();
+    s.ready = b.ready();
+    s.reason = b.reason();
+    for (int p : b.precisions()) s.precisions.push_back(from_proto(static_cast<v1::Precision>(p)));
+    s.max_batch = b.max_batch();
+    info.backends.push_back(std::move(s));
+  }
+  info.max_states_per_request = r.max_states_per_request();
+  info.max_message_bytes = r.max_message_bytes();
+  info.max_concurrent_requests = r.max_concurrent_requests();
+  return info;
+}
+
+}  // namespace rbdgrad::detail

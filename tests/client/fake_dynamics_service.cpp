@@ -1,0 +1,242 @@
+// The fake Dynamics service of the client tests (see the header).
+#include "fake_dynamics_service.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <thread>
+
+#include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server_builder.h>
+
+namespace rbdgrad::testing {
+
+namespace v1 = rbdgrad::v1;
+
+namespace {
+
+const v1::Output kOutputs[] = {v1::OUTPUT_QDD, v1::OUTPUT_MINV,    v1::OUTPUT_DQDD_DQ, v1::OUTPUT_DQDD_DQD,
+                               v1::OUTPUT_TAU, v1::OUTPUT_DTAU_DQ, v1::OUTPUT_DTAU_DQD, v1::OUTPUT_M};
+
+bool is_vector(v1::Output o) { return o == v1::OUTPUT_QDD || o == v1::OUTPUT_TAU; }
+
+v1::Tensor* tensor_of(v1::ComputeResponse& r, v1::Output o) {
+  switch (o) {
+    case v1::OUTPUT_QDD: return r.mutable_qdd();
+    case v1::OUTPUT_MINV: return r.mutable_minv();
+    case v1::OUTPUT_DQDD_DQ: return r.mutable_dqdd_dq();
+    case v1::OUTPUT_DQDD_DQD: return r.mutable_dqdd_dqd();
+    case v1::OUTPUT_TAU: return r.mutable_tau();
+    case v1::OUTPUT_DTAU_DQ: return r.mutable_dtau_dq();
+    case v1::OUTPUT_DTAU_DQD: return r.mutable_dtau_dqd();
+    default: return r.mutable_m();
+  }
+}
+
+std::vector<double> doubles(const v1::Tensor& t) {
+  std::vector<double> v(t.data().size() / sizeof(double));
+  std::memcpy(v.data(), t.data().data(), v.size() * sizeof(double));
+  return v;
+}
+
+template <class T>
+void append(std::string& bytes, T value) {
+  bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+}  // namespace
+
+double fake_output_value(v1::Output o, const double* q, const double* qd, const double* u, int i, int j) {
+  const double base = 1000.0 * static_cast<int>(o);
+  if (is_vector(o)) return base + q[i] + 2 * qd[i] + 3 * u[i];
+  // i and j enter differently, so a transposed or shifted view shows
+  return base + 10.0 * i + j + q[i] * qd[j] + u[j];
+}
+
+grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::ComputeRequest& req,
+                                         v1::ComputeResponse& resp) {
+  {
+    std::lock_guard lock(mutex_);
+    received_.push_back(req);
+    last_time_left_ = std::chrono::duration_cast<std::chrono::milliseconds>(ctx->deadline() - std::chrono::system_clock::now());
+  }
+  if (req.model() == "broken") return {grpc::StatusCode::INVALID_ARGUMENT, kBrokenMessage};
+  if (req.model() == "unknown") return {grpc::StatusCode::NOT_FOUND, kUnknownMessage};
+  if (req.model() == "slow") {
+    for (int waited_ms = 0; waited_ms < 5000 && !ctx->IsCancelled(); waited_ms += 5)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (ctx->IsCancelled()) return {grpc::StatusCode::CANCELLED, "cancelled while slow"};
+  }
+  // the daemon's checks, in short
+  const int n = static_cast<int>(req.num_states());
+  if (n < 1) return {grpc::StatusCode::INVALID_ARGUMENT, "num_states must be at least 1"};
+  if (req.outputs_size() == 0) return {grpc::StatusCode::INVALID_ARGUMENT, "no outputs requested"};
+  const std::vector<double> q = doubles(req.q()), qd = doubles(req.qd()), u = doubles(req.u());
+  const int nv = static_cast<int>(q.size()) / n;
+  if (nv < 1 || q.size() != static_cast<std::size_t>(n * nv) || qd.size() != q.size() || u.size() != q.size())
+    return {grpc::StatusCode::INVALID_ARGUMENT, "q, qd and u must hold num_states x nv values each"};
+
+  // a NaN in q is refused like the daemon does, naming the state (per-state errors)
+  for (std::size_t e = 0; e < q.size(); ++e)
+    if (std::isnan(q[e]))
+      return {grpc::StatusCode::INVALID_ARGUMENT, "state " + std::to_string(e / static_cast<std::size_t>(nv)) +
+                                                      ": field 'q' element " + std::to_string(e % static_cast<std::size_t>(nv)) +
+                                                      " is not finite (nan)"};
+  const bool f32 = req.output_type() == v1::SCALAR_TYPE_F32;
+  for (v1::Output o : kOutputs) {
+    bool wanted = false;
+    for (int x : req.outputs()) wanted |= x == o;
+    if (!wanted) continue;
+    v1::Tensor* t = tensor_of(resp, o);
+    t->set_type(f32 ? v1::SCALAR_TYPE_F32 : v1::SCALAR_TYPE_F64);
+    std::string& bytes = *t->mutable_data();
+    const int cols = is_vector(o) ? 1 : nv;
+    for (int k = 0; k < n; ++k) {
+      const std::size_t s = static_cast<std::size_t>(k * nv);
+      for (int i = 0; i < nv; ++i) {
+        for (int j = 0; j < cols; ++j) {
+          const double v = fake_output_value(o, &q[s], &qd[s], &u[s], i, j);
+          if (f32) append(bytes, static_cast<float>(v));
+          else append(bytes, v);
+        }
+      }
+    }
+    if (req.model() == "short") bytes.resize(bytes.size() - (f32 ? sizeof(float) : sizeof(double)));
+  }
+  resp.set_request_id(req.request_id());
+  resp.set_num_states(req.num_states());
+  resp.set_backend(req.backend() == v1::BACKEND_AUTO ? v1::BACKEND_CPU : req.backend());
+  resp.set_precision(req.precision() == v1::PRECISION_AUTO ? v1::PRECISION_F64 : req.precision());
+  resp.mutable_timings()->set_queue_us(kQueueUs);
+  resp.mutable_timings()->set_compute_us(kComputeUs);
+  resp.mutable_timings()->set_total_us(kTotalUs);
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeDynamicsService::Compute(grpc::ServerContext* ctx, const v1::ComputeRequest* req,
+                                          v1::ComputeResponse* resp) {
+  return answer(ctx, *req, *resp);
+}
+
+grpc::Status FakeDynamicsService::ComputeStream(
+    grpc::ServerContext* ctx, grpc::ServerReaderWriter<v1::ComputeResponse, v1::ComputeRequest>* stream) {
+  {
+    std::lock_guard lock(mutex_);
+    ++streams_;
+  }
+  v1::ComputeRequest req;
+  while (stream->Read(&req)) {
+    v1::ComputeResponse resp;
+    if (grpc::Status st = answer(ctx, req, resp); !st.ok()) return st;  // the daemon ends the stream so too
+    if (!stream->Write(resp)) break;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeDynamicsService::ListModels(grpc::ServerContext*, const v1::ListModelsRequest*,
+                                             v1::ListModelsResponse* resp) {
+  auto* a = resp->add_models();
+  a->set_name("iiwa14");
+  a->set_nv(7);
+  a->set_source("<embedded>");
+  auto* b = resp->add_models();
+  b->set_name("panda");
+  b->set_nv(9);
+  b->set_source("/robots/panda.urdf");
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeDynamicsService::GetModel(grpc::ServerContext*, const v1::GetModelRequest* req,
+                                           v1::GetModelResponse* resp) {
+  if (req->name() != "twolink") return {grpc::StatusCode::NOT_FOUND, "model '" + req->name() + "' is not loaded"};
+  resp->set_name("twolink");
+  resp->set_nv(2);
+  auto* j1 = resp->add_joints();
+  j1->set_name("shoulder");
+  j1->set_type("revolute");
+  j1->set_parent(-1);
+  j1->set_parent_link("base");
+  j1->set_child_link("upper_arm");
+  j1->set_lower_limit(-1.5);
+  j1->set_upper_limit(2.5);
+  j1->set_effort_limit(80);
+  j1->set_velocity_limit(3);
+  auto* j2 = resp->add_joints();
+  j2->set_name("wrist");
+  j2->set_type("continuous");
+  j2->set_parent(0);
+  j2->set_parent_link("upper_arm");
+  j2->set_child_link("hand");
+  j2->set_effort_limit(10);
+  j2->set_velocity_limit(6);
+  for (double g : {0.0, -9.81, 0.5}) resp->add_gravity(g);
+  resp->set_summary("model 'twolink': 2 moving joints");
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeDynamicsService::GetServerInfo(grpc::ServerContext*, const v1::GetServerInfoRequest*,
+                                                v1::GetServerInfoResponse* resp) {
+  resp->set_version("9.8.7-fake");
+  auto* cpu = resp->add_backends();
+  cpu->set_backend(v1::BACKEND_CPU);
+  cpu->set_name("cpu");
+  cpu->set_ready(true);
+  cpu->add_precisions(v1::PRECISION_F64);
+  cpu->add_precisions(v1::PRECISION_F32);
+  auto* fpga = resp->add_backends();
+  fpga->set_backend(v1::BACKEND_FPGA);
+  fpga->set_name("fpga");
+  fpga->set_ready(false);
+  fpga->set_reason("no XRT device found");
+  fpga->add_precisions(v1::PRECISION_FIXED);
+  fpga->set_max_batch(4096);
+  resp->set_max_states_per_request(1000);
+  resp->set_max_message_bytes(uint64_t{5} << 30);  // above 32 bits on purpose
+  resp->set_max_concurrent_requests(8);
+  return grpc::Status::OK;
+}
+
+std::vector<v1::ComputeRequest> FakeDynamicsService::received() const {
+  std::lock_guard lock(mutex_);
+  return received_;
+}
+
+std::chrono::milliseconds FakeDynamicsService::last_time_left() const {
+  std::lock_guard lock(mutex_);
+  return last_time_left_;
+}
+
+int FakeDynamicsService::stream_count() const {
+  std::lock_guard lock(mutex_);
+  return streams_;
+}
+
+FakeServer::FakeServer() {
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service_);
+  server_ = builder.BuildAndStart();
+  address_ = "127.0.0.1:" + std::to_string(port);
+}
+
+FakeServer::~FakeServer() { server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1)); }
+
+std::string unused_address() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof addr;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), len);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  const int port = ntohs(addr.sin_port);
+  ::close(fd);  // nothing listens there now
+  return "127.0.0.1:" + std::to_string(port);
+}
+
+}  // namespace rbdgrad::testing

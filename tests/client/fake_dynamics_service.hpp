@@ -1,0 +1,80 @@
+// A stand-in for rbdgradd in the client tests: the Dynamics service on an ephemeral loopback port.
+// It records every ComputeRequest it receives and answers with values computed from the request's
+// inputs by fake_output_value, so a test can check both what was sent and how the result maps
+// states and elements. Special model names trigger failures:
+//   "broken"  -> INVALID_ARGUMENT kBrokenMessage      "unknown" -> NOT_FOUND kUnknownMessage
+//   "slow"    -> answers after 5 s unless cancelled    "short"   -> every output one value short
+// Requests are checked like the daemon does (N >= 1, input sizes, at least one output, no NaN in q:
+// INVALID_ARGUMENT "state k: field 'q' element i is not finite (nan)").
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <grpcpp/server.h>
+
+#include "rbdgrad/v1/dynamics.grpc.pb.h"
+
+namespace rbdgrad::testing {
+
+inline constexpr const char* kBrokenMessage = "request 'r-broken': state 1: field 'q' element 2 is not finite (nan)";
+inline constexpr const char* kUnknownMessage = "model 'unknown' is not loaded (loaded: iiwa14, panda)";
+// canned server timings of every response
+inline constexpr std::uint64_t kQueueUs = 7, kComputeUs = 11, kTotalUs = 23;
+
+/// The value the fake puts in output `o` (a proto Output) for state k, element (i, j) (j = 0 for
+/// vectors), from that state's inputs q, qd, u (nv values each).
+double fake_output_value(rbdgrad::v1::Output o, const double* q, const double* qd, const double* u, int i, int j);
+
+class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
+ public:
+  grpc::Status Compute(grpc::ServerContext* ctx, const rbdgrad::v1::ComputeRequest* req,
+                       rbdgrad::v1::ComputeResponse* resp) override;
+  grpc::Status ComputeStream(
+      grpc::ServerContext* ctx,
+      grpc::ServerReaderWriter<rbdgrad::v1::ComputeResponse, rbdgrad::v1::ComputeRequest>* stream) override;
+  grpc::Status ListModels(grpc::ServerContext* ctx, const rbdgrad::v1::ListModelsRequest* req,
+                          rbdgrad::v1::ListModelsResponse* resp) override;
+  grpc::Status GetModel(grpc::ServerContext* ctx, const rbdgrad::v1::GetModelRequest* req,
+                        rbdgrad::v1::GetModelResponse* resp) override;
+  grpc::Status GetServerInfo(grpc::ServerContext* ctx, const rbdgrad::v1::GetServerInfoRequest* req,
+                             rbdgrad::v1::GetServerInfoResponse* resp) override;
+
+  // Copies of the compute requests received so far (unary and stream), in arrival order.
+  std::vector<rbdgrad::v1::ComputeRequest> received() const;
+  // Time left until the deadline of the last call, as the server saw it on arrival.
+  std::chrono::milliseconds last_time_left() const;
+  int stream_count() const;
+
+ private:
+  grpc::Status answer(grpc::ServerContext* ctx, const rbdgrad::v1::ComputeRequest& req,
+                      rbdgrad::v1::ComputeResponse& resp);
+
+  mutable std::mutex mutex_;
+  std::vector<rbdgrad::v1::ComputeRequest> received_;
+  std::chrono::milliseconds last_time_left_{0};
+  int streams_ = 0;
+};
+
+// The fake service served on 127.0.0.1:<ephemeral port> until destroyed.
+class FakeServer {
+ public:
+  FakeServer();
+  ~FakeServer();
+  const std::string& address() const { return address_; }
+  FakeDynamicsService& service() { return service_; }
+
+ private:
+  FakeDynamicsService service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::string address_;
+};
+
+// An address where nothing listens (a port bound and released).
+std::string unused_address();
+
+}  // namespace rbdgrad::testing

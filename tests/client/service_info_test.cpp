@@ -1,0 +1,111 @@
+// Tests for client/src/info_decoding.cpp: ListModels, GetModel and GetServerInfo as plain structs.
+#include <gtest/gtest.h>
+
+#include "fake_dynamics_service.hpp"
+#include "rbdgrad/client.hpp"
+
+namespace rbdgrad::testing {
+namespace {
+
+TEST(ClientServiceInfo, ListModels) {
+  FakeServer server;
+  const std::vector<ServedModel> models = Client(server.address()).list_models();
+  ASSERT_EQ(models.size(), 2u);
+  EXPECT_EQ(models[0].name, "iiwa14");
+  EXPECT_EQ(models[0].nv, 7);
+  EXPECT_EQ(models[0].source, "<embedded>");
+  EXPECT_EQ(models[1].name, "panda");
+  EXPECT_EQ(models[1].nv, 9);
+  EXPECT_EQ(models[1].source, "/robots/panda.urdf");
+}
+
+TEST(ClientServiceInfo, GetModelMapsJointsInOrder) {
+  FakeServer server;
+  const ModelDescription m = Client(server.address()).get_model("twolink");
+  EXPECT_EQ(m.name, "twolink");
+  EXPECT_EQ(m.nv, 2);
+  ASSERT_EQ(m.joints.size(), 2u);
+  const JointDescription& a = m.joints[0];
+  EXPECT_EQ(a.name, "shoulder");
+  EXPECT_EQ(a.type, "revolute");
+  EXPECT_EQ(a.parent, -1);
+  EXPECT_EQ(a.parent_link, "base");
+  EXPECT_EQ(a.child_link, "upper_arm");
+  EXPECT_EQ(a.lower_limit, -1.5);
+  EXPECT_EQ(a.upper_limit, 2.5);
+  EXPECT_EQ(a.effort_limit, 80);
+  EXPECT_EQ(a.velocity_limit, 3);
+  EXPECT_TRUE(a.has_position_limits());
+  const JointDescription& b = m.joints[1];
+  EXPECT_EQ(b.name, "wrist");
+  EXPECT_EQ(b.type, "continuous");
+  EXPECT_EQ(b.parent, 0);
+  EXPECT_FALSE(b.has_position_limits());
+  EXPECT_EQ(m.gravity, Eigen::Vector3d(0.0, -9.81, 0.5));
+  EXPECT_EQ(m.summary, "model 'twolink': 2 moving joints");
+}
+
+TEST(ClientServiceInfo, GetModelOfAnUnknownNameIsNotFound) {
+  FakeServer server;
+  Client client(server.address());
+  try {
+    (void)client.get_model("nope");
+    FAIL() << "no exception";
+  } catch (const ClientError& e) {
+    EXPECT_EQ(e.code(), RpcCode::kNotFound);
+    EXPECT_EQ(e.message(), "model 'nope' is not loaded");
+  }
+  ModelDescription m;
+  EXPECT_EQ(client.get_model("nope", m).code(), RpcCode::kNotFound);
+}
+
+TEST(ClientServiceInfo, ServerInfoMapsBackendsAndLimits) {
+  FakeServer server;
+  ServerInfo info;
+  ASSERT_TRUE(Client(server.address()).server_info(info));
+  EXPECT_EQ(info.version, "9.8.7-fake");
+  ASSERT_EQ(info.backends.size(), 2u);
+  const BackendStatus& cpu = info.backends[0];
+  EXPECT_EQ(cpu.backend, Backend::kCpu);
+  EXPECT_EQ(cpu.name, "cpu");
+  EXPECT_TRUE(cpu.ready);
+  EXPECT_EQ(cpu.precisions, (std::vector<Precision>{Precision::kF64, Precision::kF32}));
+  EXPECT_EQ(cpu.max_batch, 0u);
+  const BackendStatus& fpga = info.backends[1];
+  EXPECT_EQ(fpga.backend, Backend::kFpga);
+  EXPECT_FALSE(fpga.ready);
+  EXPECT_EQ(fpga.reason, "no XRT device found");
+  EXPECT_EQ(fpga.precisions, std::vector<Precision>{Precision::kFixed});
+  EXPECT_EQ(fpga.max_batch, 4096u);
+  EXPECT_EQ(info.max_states_per_request, 1000u);
+  EXPECT_EQ(info.max_message_bytes, std::uint64_t{5} << 30);
+  EXPECT_EQ(info.max_concurrent_requests, 8u);
+}
+
+TEST(ClientNames, RoundTrip) {
+  for (Precision p : {Precision::kAuto, Precision::kF64, Precision::kF32, Precision::kFixed}) {
+    Precision back{};
+    ASSERT_TRUE(parse_precision(precision_name(p), back));
+    EXPECT_EQ(back, p);
+  }
+  for (Backend b : {Backend::kAuto, Backend::kCpu, Backend::kCuda, Backend::kFpga}) {
+    Backend back{};
+    ASSERT_TRUE(parse_backend(backend_name(b), back));
+    EXPECT_EQ(back, b);
+  }
+  ComputeInput in{};
+  EXPECT_TRUE(parse_input("qdd", in));
+  EXPECT_EQ(in, ComputeInput::kQdd);
+  ScalarType t{};
+  EXPECT_TRUE(parse_scalar_type("f32", t));
+  EXPECT_EQ(t, ScalarType::kF32);
+  Precision p = Precision::kF32;
+  EXPECT_FALSE(parse_precision("f16", p));
+  EXPECT_EQ(p, Precision::kF32) << "untouched on failure";
+  EXPECT_STREQ(output_name(Output::kDqddDqd), "dqdd_dqd");
+  EXPECT_STREQ(rpc_code_name(RpcCode::kResourceExhausted), "RESOURCE_EXHAUSTED");
+  EXPECT_STREQ(rpc_code_name(static_cast<RpcCode>(99)), "UNKNOWN_CODE");
+}
+
+}  // namespace
+}  // namespace rbdgrad::testing
