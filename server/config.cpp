@@ -216,7 +216,8 @@ class Parser {
     if (root.IsNull()) return Status::ok();
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
-                              {"listen", "models", "plugins", "workers", "limits", "log_level"});
+                              {"listen", "models", "plugins", "workers", "inline_max_states", "limits",
+                               "log_level"});
         !s) {
       return s;
     }
@@ -231,6 +232,10 @@ class Parser {
     }
     if (root["workers"]) {
       if (Status s = get_int("workers", root["workers"], 0, 4096, out.workers); !s) return s;
+    }
+    if (root["inline_max_states"]) {
+      if (Status s = get_int("inline_max_states", root["inline_max_states"], 0, kMaxInt32, out.inline_max_states); !s)
+        return s;
     }
     if (root["limits"]) {
       if (Status s = parse_limits(root["limits"], out.limits); !s) return s;
@@ -376,6 +381,7 @@ std::string describe(const ServerConfig& cfg) {
   } else {
     os << cfg.workers << "\n";
   }
+  os << "inline_max_states: " << cfg.inline_max_states << "\n";
   os << "limits: max_states_per_request " << cfg.limits.max_states_per_request
      << ", max_message_bytes " << cfg.limits.max_message_bytes << ", max_concurrent_requests "
      << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "

@@ -40,9 +40,10 @@ class InstancePool {
  public:
   struct Options {
     // Jobs of at most this many states run on the submitting thread when an instance is free and
-    // no job is queued; larger ones go to a pool thread. 0 = never inline. Default 0: measured on
-    // 16 cores (iiwa14, N = 64, all outputs, one client), running on the gRPC thread that received
-    // the request was 100-200 us slower end to end than handing it to the pool thread.
+    // no job is queued; larger ones go to a pool thread. 0 = never inline. The daemon sets it from
+    // its configuration (inline_max_states): on 2 cores, iiwa14 N = 64 over a local socket, inline
+    // cut the server's queue time from 24-43 us to 8-28 us and the round trip in 8 of 8
+    // comparisons (docs/benchmarks/service.md).
     std::uint64_t inline_max_states = 0;
   };
 

@@ -167,6 +167,7 @@ int main(int argc, char** argv) {
   server::DaemonOptions options;
   options.config = config;
   options.cpu_plugin_path = default_cpu_plugin_path();
+  options.pool.inline_max_states = static_cast<std::uint64_t>(config.inline_max_states);
   std::unique_ptr<server::Daemon> daemon;
   if (rbdgrad::Status s = server::Daemon::create(std::move(options), daemon); !s) {
     spdlog::error("{}", s.to_string());

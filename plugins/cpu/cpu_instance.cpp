@@ -20,15 +20,16 @@ template <> const ModelTpl<double>& CpuInstance::model<double>() const { return 
 template <> const ModelTpl<float>& CpuInstance::model<float>() const { return model_f32_; }
 template <> const ModelTpl<Q16_16>& CpuInstance::model<Q16_16>() const { return model_fixed_; }
 
-CpuInstance::CpuInstance(const Model& model, std::size_t threads)
+CpuInstance::CpuInstance(const Model& model, std::size_t threads, std::chrono::microseconds idle_poll)
     : model_(model), model_f32_(model.cast<float>()), model_fixed_(model.cast<Q16_16>()),
-      chunks_(std::max<std::size_t>(threads, 1)), pool_(threads) {
+      chunks_(std::max<std::size_t>(threads, 1)), pool_(threads, idle_poll) {
   for (std::size_t w = 0; w < pool_.size(); ++w) workers_.push_back(std::make_unique<Worker>(*this));
 }
 
-Status CpuInstance::create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out) {
+Status CpuInstance::create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out,
+                           std::chrono::microseconds idle_poll) {
   try {
-    out.reset(new CpuInstance(model, threads));
+    out.reset(new CpuInstance(model, threads, idle_poll));
   } catch (const std::system_error& e) {
     return Status(StatusCode::kInternal, "cannot start " + std::to_string(threads) + " worker threads: " + e.what());
   }

@@ -2,6 +2,7 @@
 // worker thread and precision (all sized here, so compute never allocates), and the thread pool.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -19,7 +20,9 @@ class CpuInstance {
   /// \param[in] model a validated model (model_from_desc), cast here once to f32 and Q16.16.
   /// \param[in] threads workers, the calling thread included (>= 1).
   /// \param[out] out set on success; errors: thread creation failure (internal).
-  static Status create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out);
+  /// \param[in] idle_poll how long idle workers poll for the next batch before sleeping (ThreadPool).
+  static Status create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out,
+                       std::chrono::microseconds idle_poll = ThreadPool::kDefaultIdlePoll);
 
   /// Validates `batch` (validate_batch) and computes it: the states are split into contiguous chunks,
   /// one per worker. Every state is attempted; state_status says which failed, and the error names
@@ -46,7 +49,7 @@ class CpuInstance {
     Status status;  // of first_failed
   };
 
-  CpuInstance(const Model& model, std::size_t threads);
+  CpuInstance(const Model& model, std::size_t threads, std::chrono::microseconds idle_poll);
   template <class S> const ModelTpl<S>& model() const;
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
 

@@ -1,5 +1,6 @@
 // The CPU backend's plugin table: the core library on a pool of worker threads, in f64, f32 and
 // Q16.16 fixed point (a bit-exact software model of the FPGA kernels' arithmetic).
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <thread>
@@ -27,6 +28,8 @@ namespace {
 constexpr std::uint32_t kMinHostMinor = 0;
 // more threads than this is a typo, not a machine
 constexpr std::uint64_t kMaxThreads = 1024;
+// a second of polling is no longer a bridge between batches
+constexpr std::uint64_t kMaxIdlePollUs = 1'000'000;
 
 std::uint64_t default_threads() {
   const unsigned hw = std::thread::hardware_concurrency();  // 0 when unknown
@@ -68,13 +71,19 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (instance == nullptr) return invalid_argument("instance is NULL");
     *instance = nullptr;
     if (desc == nullptr) return invalid_argument("model is NULL");
-    if (Status s = check_options(options, {"threads"}); !s) return s;
+    // threads: workers, the calling thread included; idle_poll_us: see ThreadPool
+    if (Status s = check_options(options, {"threads", "idle_poll_us"}); !s) return s;
     std::uint64_t threads = default_threads();
     if (Status s = option_uint(options, "threads", 1, kMaxThreads, threads); !s) return s;
+    auto idle_poll_us = static_cast<std::uint64_t>(ThreadPool::kDefaultIdlePoll.count());
+    if (Status s = option_uint(options, "idle_poll_us", 0, kMaxIdlePollUs, idle_poll_us); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
-    if (Status s = CpuInstance::create(model, threads, made->cpu); !s) return s;
+    if (Status s = CpuInstance::create(model, threads, made->cpu,
+                                       std::chrono::microseconds(static_cast<std::int64_t>(idle_poll_us)));
+        !s)
+      return s;
     *instance = made.release();
     return Status::ok();
   });

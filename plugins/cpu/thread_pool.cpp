@@ -1,5 +1,7 @@
 #include "thread_pool.hpp"
 
+#include <chrono>
+
 namespace rbdgrad::plugin {
 namespace {
 
@@ -14,15 +16,20 @@ inline void cpu_relax() {
 #endif
 }
 
-// polls `ready` for a while; the caller then waits properly under the lock either way
-template <class Ready>
-void spin_until(Ready&& ready) {
-  for (int i = 0; i < kSpinIterations && !ready(); ++i) cpu_relax();
-}
-
 }  // namespace
 
-ThreadPool::ThreadPool(std::size_t threads) {
+template <class Ready>
+void ThreadPool::poll_until(Ready&& ready) const {
+  for (int i = 0; i < kSpinIterations; ++i) {
+    if (ready()) return;
+    cpu_relax();
+  }
+  if (idle_poll_.count() <= 0) return;
+  const auto end = std::chrono::steady_clock::now() + idle_poll_;
+  while (!ready() && std::chrono::steady_clock::now() < end) std::this_thread::yield();
+}
+
+ThreadPool::ThreadPool(std::size_t threads, std::chrono::microseconds idle_poll) : idle_poll_(idle_poll) {
   const std::size_t extra = threads > 1 ? threads - 1 : 0;
   threads_.reserve(extra);
   try {
@@ -68,7 +75,7 @@ void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
   }
   if (wake) start_.notify_all();
   drain(0);
-  spin_until([this] { return busy_.load(std::memory_order_acquire) == 0; });
+  poll_until([this] { return busy_.load(std::memory_order_acquire) == 0; });
   std::unique_lock lock(mutex_);
   done_.wait(lock, [this] { return busy_ == 0; });
   if (error_) {
@@ -82,7 +89,7 @@ void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
 void ThreadPool::worker_loop(std::size_t worker) {
   std::uint64_t seen = 0;
   for (;;) {
-    spin_until([&] {
+    poll_until([&] {
       return stop_.load(std::memory_order_acquire) || generation_.load(std::memory_order_acquire) != seen;
     });
     {

@@ -1,12 +1,17 @@
 // A persistent pool of worker threads for batch computation. The threads start once, in the
 // constructor, and wait between batches: spawning threads per batch cost up to 1.9x in the paper's
-// measurements. Waiting spins briefly before it sleeps (workers for the next batch, the caller for
-// the end of this one): waking a sleeping thread costs tens of microseconds, as much as a whole
-// batch of 16 iiwa14 gradients per worker, and MPC loops send batches back to back. run() hands out tasks to the workers and the calling thread and blocks until all are
-// done; it allocates nothing (the task is a function pointer plus a context pointer).
+// measurements. Waiting polls before it sleeps (workers for the next batch, the caller for the end
+// of this one): waking a sleeping thread costs tens of microseconds, as much as a whole batch of
+// 16 iiwa14 gradients per worker, and MPC loops send batches back to back. Polling is a short busy
+// spin (~20 us, for batches back to back in one process) followed by `idle_poll` of polling that
+// yields the core to any other runnable thread: that phase bridges a client's round trip through
+// the daemon (a few hundred us), costing a core only while nothing else wants it.
+// run() hands out tasks to the workers and the calling thread and blocks until all are done; it
+// allocates nothing (the task is a function pointer plus a context pointer).
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -21,9 +26,15 @@ namespace rbdgrad::plugin {
 
 class ThreadPool {
  public:
+  /// Default of the yielding poll phase: longer than a round trip through the daemon over a
+  /// local socket (measured in docs/benchmarks/service.md).
+  static constexpr std::chrono::microseconds kDefaultIdlePoll{1000};
+
   /// \param[in] threads total parallelism, >= 1 (0 is taken as 1): the calling thread of run()
   ///            plus threads - 1 pool threads.
-  explicit ThreadPool(std::size_t threads);
+  /// \param[in] idle_poll how long a waiting thread keeps polling, yielding, after its short busy
+  ///            spin and before it sleeps; 0 = sleep right after the spin.
+  explicit ThreadPool(std::size_t threads, std::chrono::microseconds idle_poll = kDefaultIdlePoll);
   /// Stops and joins the threads; must not overlap a run().
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
@@ -47,10 +58,14 @@ class ThreadPool {
   using TaskFn = void (*)(void* ctx, std::size_t task, std::size_t worker);
 
   void run_erased(std::size_t tasks, TaskFn fn, void* ctx);
+  // polls `ready` (busy, then yielding); the caller then waits properly under the lock either way
+  template <class Ready>
+  void poll_until(Ready&& ready) const;
   void worker_loop(std::size_t worker);
   // takes tasks until none is left
   void drain(std::size_t worker);
 
+  const std::chrono::microseconds idle_poll_;
   std::vector<std::thread> threads_;
   std::mutex run_mutex_;  // one run() at a time
 

@@ -27,6 +27,7 @@ TEST(ServerConfigTest, DefaultsAreTheDocumentedValues) {
   EXPECT_FALSE(cfg.models[0].gravity.has_value());
   EXPECT_TRUE(cfg.plugins.empty());
   EXPECT_EQ(cfg.workers, 0);
+  EXPECT_EQ(cfg.inline_max_states, 128);
   EXPECT_EQ(cfg.limits.max_states_per_request, 65536);
   EXPECT_EQ(cfg.limits.max_message_bytes, 256 * 1024 * 1024);
   EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
@@ -43,6 +44,7 @@ TEST(ServerConfigTest, DefaultYamlEqualsBuiltInDefaults) {
   cfg.models = {};
   cfg.plugins = {PluginConfig{"/p.so", {}}};
   cfg.workers = 7;
+  cfg.inline_max_states = 9;
   cfg.limits = {1, 2, 3, 4};
   cfg.log_level = LogLevel::kError;
   const Status s = parse_config(text, "default.yaml", cfg);
@@ -109,6 +111,7 @@ TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
   ServerConfig cfg;
   const Status s = parse_config(
       "workers: 12\n"
+      "inline_max_states: 0\n"
       "limits:\n"
       "  max_states_per_request: 1024\n"
       "  max_queue_delay_us: 500\n"
@@ -116,6 +119,7 @@ TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
       "t", cfg);
   ASSERT_TRUE(s.is_ok()) << s.to_string();
   EXPECT_EQ(cfg.workers, 12);
+  EXPECT_EQ(cfg.inline_max_states, 0);
   EXPECT_EQ(cfg.limits.max_states_per_request, 1024);
   EXPECT_EQ(cfg.limits.max_queue_delay_us, 500);
   // keys the file leaves out keep their defaults

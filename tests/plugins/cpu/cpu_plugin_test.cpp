@@ -111,6 +111,19 @@ TEST(CpuPluginOptions, BadThreadsValueNamesTheOption) {
   }
 }
 
+TEST(CpuPluginOptions, IdlePollIsAnOptionWithARange) {
+  for (const char* good : {"0", "1", "1000000"}) {
+    std::optional<PluginError> error;
+    EXPECT_NE(create(api(), iiwa().desc(), {{"threads", "2"}, {"idle_poll_us", good}}, &error), nullptr) << good;
+  }
+  for (const char* bad : {"abc", "-1", "1000001", ""}) {
+    std::optional<PluginError> error;
+    EXPECT_EQ(create(api(), iiwa().desc(), {{"idle_poll_us", bad}}, &error), nullptr) << bad;
+    ASSERT_TRUE(error) << bad;
+    EXPECT_THAT(error->message, HasSubstr("option 'idle_poll_us'")) << bad;
+  }
+}
+
 TEST(CpuPluginOptions, UnknownOrRepeatedKeysAreErrors) {
   std::optional<PluginError> error;
   create(api(), iiwa().desc(), {{"thread", "2"}}, &error);

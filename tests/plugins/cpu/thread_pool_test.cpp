@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -94,6 +95,28 @@ TEST(ThreadPool, UsesThePoolThreads) {
   });
   EXPECT_EQ(ids.size(), 4u);
   EXPECT_TRUE(ids.count(std::this_thread::get_id()));
+}
+
+TEST(ThreadPool, WorkersThatWentToSleepWakeForTheNextRun) {
+  // with no idle polling and with a short one, the workers sleep between these runs
+  for (const auto idle_poll : {std::chrono::microseconds(0), std::chrono::microseconds(100)}) {
+    ThreadPool pool(3, idle_poll);
+    for (int run = 0; run < 3; ++run) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      std::mutex mutex;
+      std::set<std::thread::id> ids;
+      std::atomic<int> arrived{0};
+      pool.run(3, [&](std::size_t, std::size_t) {
+        {
+          std::lock_guard lock(mutex);
+          ids.insert(std::this_thread::get_id());
+        }
+        arrived.fetch_add(1);
+        while (arrived.load() < 3) std::this_thread::yield();
+      });
+      EXPECT_EQ(ids.size(), 3u) << "idle_poll " << idle_poll.count() << " us, run " << run;
+    }
+  }
 }
 
 TEST(ThreadPool, AnExceptionIsRethrownAfterAllTasksRan) {
