@@ -75,6 +75,15 @@ std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const M
   for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.options);
   // the built-in CPU backend, unless the configuration brought its own
   if (!options.cpu_plugin_path.empty() && pool->find("cpu") == nullptr) load(options.cpu_plugin_path, {});
+  for (const std::string& path : options.optional_plugin_paths) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) continue;
+    // a configured plugin of that name, loaded or not, is the one the operator asked for
+    const std::string name = backend_name_from_path(path);
+    const auto& states = pool->states_;
+    if (std::any_of(states.begin(), states.end(), [&](const BackendState& s) { return s.name == name; })) continue;
+    load(path, {});
+  }
   return pool;
 }
 

@@ -58,6 +58,10 @@ class BackendPool {
     // The built-in CPU backend (librbdgrad_cpu.so); loaded unless `plugins` already yields a
     // plugin named "cpu". Empty = none.
     std::string cpu_plugin_path;
+    // Further built-in backends (the CUDA and FPGA plugins next to the binary), loaded after the
+    // CPU one when their file exists and no configured plugin has their name. A missing file is
+    // not an error: a build without CUDA has no CUDA plugin.
+    std::vector<std::string> optional_plugin_paths;
     // Extra backends, loaded in order before the CPU one.
     std::vector<PluginConfig> plugins;
     // Threads of each CPU instance (the plugin's "threads" option) unless the CPU plugin's own

@@ -72,6 +72,7 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
 
   BackendPool::Options backend_options;
   backend_options.cpu_plugin_path = d->options_.cpu_plugin_path;
+  backend_options.optional_plugin_paths = d->options_.optional_plugin_paths;
   backend_options.plugins = cfg.plugins;
   backend_options.workers = cfg.workers;
   backend_options.pool = d->options_.pool;

@@ -26,6 +26,8 @@ struct DaemonOptions {
   ServerConfig config;
   // The built-in CPU backend (main looks next to its binary); empty = none besides config.plugins.
   std::string cpu_plugin_path;
+  // The CUDA and FPGA plugins next to the binary: loaded when present (BackendPool::Options).
+  std::vector<std::string> optional_plugin_paths;
   // How long stop() lets in-flight requests finish before cancelling them. Default 10 s.
   std::chrono::milliseconds shutdown_grace{10'000};
   // How requests reach the plugin instances (inline threshold).

@@ -23,11 +23,11 @@
 #include "rbdgrad/embedded_robots.hpp"
 #include "ready_file.hpp"
 
-#ifndef RBDGRAD_CPU_PLUGIN_INSTALL_REL
-#error "RBDGRAD_CPU_PLUGIN_INSTALL_REL must name the CPU plugin relative to the installed binary"
+#ifndef RBDGRAD_PLUGIN_INSTALL_DIR_REL
+#error "RBDGRAD_PLUGIN_INSTALL_DIR_REL must name the installed plugins' folder relative to the installed binary"
 #endif
-#ifndef RBDGRAD_CPU_PLUGIN_BUILD_REL
-#error "RBDGRAD_CPU_PLUGIN_BUILD_REL must name the CPU plugin relative to the binary in the build tree"
+#ifndef RBDGRAD_PLUGIN_BUILD_DIR_REL
+#error "RBDGRAD_PLUGIN_BUILD_DIR_REL must name build/plugins relative to the binary in the build tree"
 #endif
 
 namespace {
@@ -75,18 +75,20 @@ int wait_for_stop_signal(const sigset_t& set) {
   return signal;
 }
 
-// The built-in CPU backend: the installed layout (<prefix>/lib/rbdgrad next to <prefix>/bin), else
-// the build tree's (build/plugins/cpu next to build/server), both relative to this executable.
-std::string default_cpu_plugin_path() {
+// A built-in backend's plugin ("cpu" -> librbdgrad_cpu.so): the installed layout (<prefix>/lib/rbdgrad
+// next to <prefix>/bin), else the build tree's (build/plugins/cpu next to build/server), both
+// relative to this executable. When neither exists, the installed path: loading it then fails with
+// a log line that names the place it should be.
+std::string builtin_plugin_path(const std::string& name) {
   std::error_code ec;
   const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   if (ec) return "";
   const std::filesystem::path dir = exe.parent_path();
-  const std::filesystem::path installed = dir / RBDGRAD_CPU_PLUGIN_INSTALL_REL;
-  const std::filesystem::path built = dir / RBDGRAD_CPU_PLUGIN_BUILD_REL;
+  const std::string file = "librbdgrad_" + name + ".so";
+  const std::filesystem::path installed = dir / RBDGRAD_PLUGIN_INSTALL_DIR_REL / file;
+  const std::filesystem::path built = dir / RBDGRAD_PLUGIN_BUILD_DIR_REL / name / file;
   if (std::filesystem::exists(installed, ec)) return installed.lexically_normal().string();
   if (std::filesystem::exists(built, ec)) return built.lexically_normal().string();
-  // neither: the load fails and the log names the place it should be
   return installed.lexically_normal().string();
 }
 
@@ -166,7 +168,9 @@ int main(int argc, char** argv) {
 
   server::DaemonOptions options;
   options.config = config;
-  options.cpu_plugin_path = default_cpu_plugin_path();
+  options.cpu_plugin_path = builtin_plugin_path("cpu");
+  // loaded only when built or installed; without a GPU or an FPGA they report themselves unavailable
+  options.optional_plugin_paths = {builtin_plugin_path("cuda"), builtin_plugin_path("fpga")};
   options.pool.inline_max_states = static_cast<std::uint64_t>(config.inline_max_states);
   std::unique_ptr<server::Daemon> daemon;
   if (rbdgrad::Status s = server::Daemon::create(std::move(options), daemon); !s) {

@@ -4,6 +4,11 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
 
 namespace rbdgrad::server {
 namespace {
@@ -123,6 +128,38 @@ TEST_F(BackendPoolTest, AConfiguredCpuPluginReplacesTheBuiltInOne) {
   ASSERT_EQ(pool->backends().size(), 1u);  // the built-in path was never tried
   EXPECT_TRUE(pool->backends()[0].ready);
   EXPECT_EQ(pool->backends()[0].options, "threads=1");
+}
+
+TEST_F(BackendPoolTest, OptionalBuiltInPluginsLoadWhenPresentAndYieldToConfiguredOnes) {
+  // the fake "cuda" backend under the built-in plugin's file name
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("rbdgrad-backend-pool-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path cuda_path = dir / "librbdgrad_cuda.so";
+  std::filesystem::copy_file(FAKE_CUDA_PATH, cuda_path, std::filesystem::copy_options::overwrite_existing);
+
+  // the FPGA plugin is absent (a build without it): nothing is listed for it
+  BackendPool::Options options;
+  options.cpu_plugin_path = RBDGRAD_CPU_PLUGIN_PATH;
+  options.optional_plugin_paths = {kMissingFpga, cuda_path.string()};
+  options.workers = 2;
+  auto pool = BackendPool::create(options, models_);
+  EXPECT_EQ(state(*pool, "fpga"), nullptr);
+  ASSERT_NE(state(*pool, "cuda"), nullptr);
+  EXPECT_TRUE(state(*pool, "cuda")->ready) << state(*pool, "cuda")->reason;
+  EXPECT_EQ(pool->backends().back().name, "cuda");  // after the CPU backend
+
+  // a configured plugin named cuda, even one that fails to load, is not replaced
+  options.plugins = {{"/nonexistent/librbdgrad_cuda.so", {}}};
+  pool = BackendPool::create(options, models_);
+  const auto cuda = std::count_if(pool->backends().begin(), pool->backends().end(),
+                                  [](const BackendState& s) { return s.name == "cuda"; });
+  EXPECT_EQ(cuda, 1);
+  ASSERT_NE(state(*pool, "cuda"), nullptr);
+  EXPECT_FALSE(state(*pool, "cuda")->ready);
+  EXPECT_EQ(state(*pool, "cuda")->path, "/nonexistent/librbdgrad_cuda.so");
+  pool.reset();
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(BackendPoolTest, NothingReadyWithoutAnyLoadablePlugin) {
