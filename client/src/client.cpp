@@ -54,6 +54,22 @@ std::chrono::system_clock::time_point deadline_after(std::chrono::nanoseconds ti
 
 }  // namespace detail
 
+Client::Impl::~Impl() {
+  std::unique_lock lock(async_mutex);
+  async_released.wait(lock, [this] { return async_in_flight == 0; });
+}
+
+void Client::Impl::async_started() {
+  std::lock_guard lock(async_mutex);
+  ++async_in_flight;
+}
+
+void Client::Impl::async_finished() {
+  // notified under the lock: the destructor cannot return (and free the condition variable) first
+  std::lock_guard lock(async_mutex);
+  if (--async_in_flight == 0) async_released.notify_all();
+}
+
 void Client::Impl::prepare(grpc::ClientContext& ctx, std::optional<std::chrono::nanoseconds> timeout) const {
   ctx.set_deadline(detail::deadline_after(timeout_or_default(timeout)));
   ctx.set_wait_for_ready(options.wait_for_ready);
@@ -107,12 +123,21 @@ void Client::compute_async(const ComputeRequest& req, ComputeCallback done) cons
   impl_->prepare(call->ctx, req.timeout);
   ComputeResult::Impl& result = detail::ResultAccess::reset_for_call(call->result);
   AsyncCall* raw = call.release();  // owned by the callback from here
-  impl_->stub->async()->Compute(&raw->ctx, &raw->msg, &result.response, [raw, r = &result](grpc::Status grpc_status) {
+  impl_->async_started();
+  impl_->stub->async()->Compute(&raw->ctx, &raw->msg, &result.response, [raw, r = &result, impl = impl_.get()](
+                                                                             grpc::Status grpc_status) {
     std::unique_ptr<AsyncCall> owned(raw);
     RpcStatus st = grpc_status.ok() ? detail::adopt_response(owned->expected, *r, microseconds_since(owned->start))
                                     : detail::from_grpc(grpc_status);
     if (!st) detail::ResultAccess::invalidate(owned->result);
-    owned->done(std::move(st), std::move(owned->result));
+    // The call's own objects go before the caller hears of the answer: its ClientContext holds a
+    // reference to the channel, whose last reference must not be dropped on this gRPC thread
+    // (~Impl waits for this).
+    ComputeResult result = std::move(owned->result);
+    Client::ComputeCallback done = std::move(owned->done);
+    owned.reset();
+    impl->async_finished();
+    done(std::move(st), std::move(result));
   });
 }
 

@@ -3,7 +3,10 @@
 #pragma once
 
 #include <chrono>
+#include <condition_variable>
+#include <cstddef>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 
@@ -16,10 +19,25 @@
 namespace rbdgrad {
 
 struct Client::Impl {
+  Impl() = default;
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+  // Waits until no asynchronous call holds the channel any more: the last reference to a channel
+  // must not be dropped on one of its own callback threads (gRPC aborts).
+  ~Impl();
+
   std::string address;
   ClientOptions options;
   std::shared_ptr<grpc::Channel> channel;        // one connection for every thread
   std::unique_ptr<v1::Dynamics::Stub> stub;      // thread-safe
+
+  // asynchronous calls whose gRPC objects (and so channel references) still exist
+  std::mutex async_mutex;
+  std::condition_variable async_released;
+  std::size_t async_in_flight = 0;
+  void async_started();
+  // after the call's gRPC objects are gone; the Impl may be destroyed as soon as this returns
+  void async_finished();
 
   // A call's timeout: its own, else the client's default.
   std::chrono::nanoseconds timeout_or_default(std::optional<std::chrono::nanoseconds> timeout) const {

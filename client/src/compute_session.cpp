@@ -3,6 +3,7 @@
 #include <grpcpp/alarm.h>
 
 #include <cstdio>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -15,8 +16,8 @@ namespace rbdgrad {
 
 namespace detail {
 
-// The stream and what a step's timeout alarm touches. Shared with the alarm's callback, which may
-// run on a gRPC thread after the step (or the session) has ended.
+// The stream and what a step's timeout alarm touches. The alarm's callback, which may run on a
+// gRPC thread after the step (or the session) has ended, sees it through a weak reference.
 struct StreamCall {
   grpc::ClientContext ctx;
   std::unique_ptr<grpc::ClientReaderWriter<v1::ComputeRequest, v1::ComputeResponse>> stream;
@@ -61,8 +62,11 @@ class StepDeadline {
  public:
   StepDeadline(const std::shared_ptr<detail::StreamCall>& call, std::chrono::nanoseconds timeout)
       : call_(*call), serial_(call->begin_step()) {
-    alarm_.Set(detail::deadline_after(timeout), [call, s = serial_](bool fired) {
-      if (fired) call->expire(s);
+    // weak: the callback runs on a gRPC thread, which must not end up holding the stream's (and
+    // so the channel's) last reference once the session is gone
+    alarm_.Set(detail::deadline_after(timeout), [weak = std::weak_ptr<detail::StreamCall>(call), s = serial_](bool fired) {
+      if (!fired) return;
+      if (const std::shared_ptr<detail::StreamCall> live = weak.lock()) live->expire(s);
     });
   }
   ~StepDeadline() {

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <future>
+#include <memory>
 #include <thread>
 
 #include "fake_dynamics_service.hpp"
@@ -47,6 +49,30 @@ TEST(ClientConcurrency, ThreadsShareOneClient) {
   EXPECT_EQ(good.load(), kThreads * kCalls);
   for (const std::string& p : problems) EXPECT_EQ(p, "");
   EXPECT_EQ(server.service().received().size(), static_cast<std::size_t>(kThreads * kCalls));
+}
+
+TEST(ClientConcurrency, TheClientMayGoWhileAsyncCallsAnswer) {
+  // The caller learns of the answer on a gRPC thread; destroying the Client (its channel) right
+  // after, or even before, must not race with the call's own clean-up on that thread.
+  FakeServer server;
+  const TestBatch batch(2, 3);
+  ComputeRequest req = batch.request();
+  req.outputs = Output::kQdd | Output::kDtauDq;
+  for (int round = 0; round < 100; ++round) {
+    auto client = std::make_unique<Client>(server.address());
+    std::promise<RpcStatus> answered;
+    client->compute_async(req, [&](RpcStatus st, ComputeResult) { answered.set_value(std::move(st)); });
+    const RpcStatus st = answered.get_future().get();
+    client.reset();
+    ASSERT_TRUE(st) << "round " << round << ": " << st.to_string();
+    // destroyed with the call still in flight: the destructor waits for it
+    std::promise<RpcStatus> late;
+    auto other = std::make_unique<Client>(server.address());
+    other->compute_async(req, [&](RpcStatus s, ComputeResult) { late.set_value(std::move(s)); });
+    other.reset();
+    const RpcStatus late_status = late.get_future().get();
+    ASSERT_TRUE(late_status) << "round " << round << ": " << late_status.to_string();
+  }
 }
 
 }  // namespace

@@ -106,6 +106,8 @@ class RBDGRAD_CLIENT_EXPORT Client {
   ///                 Connecting is lazy: constructing never fails, the first call reports an
   ///                 unreachable server (UNAVAILABLE).
   explicit Client(std::string address = std::string(kDefaultServerAddress), ClientOptions options = {});
+  /// Waits for the asynchronous calls still in flight to complete (each by its deadline at the
+  /// latest); their callbacks may still be running when it returns.
   ~Client();
   Client(Client&&) noexcept;
   Client& operator=(Client&&) noexcept;
