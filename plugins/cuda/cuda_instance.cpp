@@ -1,0 +1,195 @@
+#include "cuda_instance.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "common/batch_view.hpp"
+#include "common/error.hpp"
+#include "cuda_device.hpp"
+#include "flat_model.hpp"
+#include "fused_launch.hpp"
+#include "state_message.hpp"
+
+namespace rbdgrad::cuda {
+
+namespace {
+
+constexpr std::uint32_t kPrecisions = RBDGRAD_PRECISION_F64 | RBDGRAD_PRECISION_F32;
+
+constexpr bool same(rbdgrad_output abi, std::uint32_t device) { return static_cast<std::uint32_t>(abi) == device; }
+static_assert(same(RBDGRAD_OUTPUT_QDD, kOutputQdd) && same(RBDGRAD_OUTPUT_MINV, kOutputMinv) &&
+                  same(RBDGRAD_OUTPUT_DQDD_DQ, kOutputDqddDq) && same(RBDGRAD_OUTPUT_DQDD_DQD, kOutputDqddDqd) &&
+                  same(RBDGRAD_OUTPUT_TAU, kOutputTau) && same(RBDGRAD_OUTPUT_DTAU_DQ, kOutputDtauDq) &&
+                  same(RBDGRAD_OUTPUT_DTAU_DQD, kOutputDtauDqd) && same(RBDGRAD_OUTPUT_M, kOutputM),
+              "the device code's output flags must equal the plugin ABI's");
+
+// Regions of one I/O block, each aligned for coalesced access.
+class BlockLayout {
+ public:
+  std::size_t add(std::size_t bytes) {
+    const std::size_t at = size_;
+    size_ = (size_ + bytes + 255) / 256 * 256;
+    return at;
+  }
+  std::size_t size() const { return size_; }
+
+ private:
+  std::size_t size_ = 0;
+};
+
+// the caller's array of one output flag
+void* caller_output(const rbdgrad_batch& b, int index) {
+  return plugin::output_pointer(b, 1u << index);
+}
+
+}  // namespace
+
+CudaInstance::CudaInstance(const Model& model, int device) : model_(model), device_(device) {}
+
+CudaInstance::~CudaInstance() {
+  // the allocations free themselves; they need this device current
+  cudaSetDevice(device_);
+  if (stream_) cudaStreamDestroy(stream_);
+}
+
+Status CudaInstance::create(const Model& model, int device, std::unique_ptr<CudaInstance>& out) {
+  if (model.nv > kMaxNv)
+    return unimplemented("model has " + std::to_string(model.nv) + " joints, more than the " + std::to_string(kMaxNv) +
+                         " the cuda backend supports");
+  if (Status s = check_device(device); !s) return s;
+  std::unique_ptr<CudaInstance> instance(new CudaInstance(model, device));
+  if (Status s = instance->init(); !s) return s;
+  out = std::move(instance);
+  return Status::ok();
+}
+
+template <class S>
+Status CudaInstance::upload_model(Allocation& block, ModelView<S>& view) {
+  const FlatModel<S> flat(model_);
+  if (Status s = block.reserve(flat.scalars.size() * sizeof(S)); !s) return s;
+  if (Status s = cuda_status(cudaMemcpy(block.data(), flat.scalars.data(), flat.scalars.size() * sizeof(S),
+                                        cudaMemcpyHostToDevice),
+                             "copying the model to the device");
+      !s)
+    return s;
+  view = flat.view(block.as<S>(), d_ints_.as<int>());
+  return Status::ok();
+}
+
+Status CudaInstance::init() {
+  if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
+  if (Status s = cuda_status(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); !s)
+    return s;
+  // robot constants, once
+  const FlatModel<double> flat(model_);
+  if (Status s = d_ints_.reserve(flat.ints.size() * sizeof(int)); !s) return s;
+  if (Status s = cuda_status(
+          cudaMemcpy(d_ints_.data(), flat.ints.data(), flat.ints.size() * sizeof(int), cudaMemcpyHostToDevice),
+          "copying the model to the device");
+      !s)
+    return s;
+  if (Status s = upload_model(d_model_f64_, view_f64_); !s) return s;
+  if (Status s = upload_model(d_model_f32_, view_f32_); !s) return s;
+
+  // workspace: one slot per thread that can be resident, as far as the budget allows
+  cudaDeviceProp prop{};
+  if (Status s = cuda_status(cudaGetDeviceProperties(&prop, device_), "cudaGetDeviceProperties"); !s) return s;
+  const std::size_t slot_bytes = WorkspaceView<double>::scalars(model_.nv) * sizeof(double);
+  const std::size_t resident = static_cast<std::size_t>(prop.multiProcessorCount) * prop.maxThreadsPerMultiProcessor;
+  const std::size_t block = kFusedThreadsPerBlock;
+  slots_ = std::min(resident, kWorkspaceBudgetBytes / slot_bytes) / block * block;
+  slots_ = std::max(slots_, block);
+  // zero-filled: entries outside the tree's sparsity are never written, and must read as zero
+  return d_scratch_.allocate_zeroed(slots_ * slot_bytes);
+}
+
+template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
+template <> const ModelView<float>& CudaInstance::view<float>() const { return view_f32_; }
+
+Status CudaInstance::compute(const rbdgrad_batch* batch) {
+  if (Status s = plugin::validate_batch(batch, model_.nv, kPrecisions, plugin::kAllOutputs); !s) return s;
+  if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
+  if (batch->precision == RBDGRAD_PRECISION_F64) return compute_typed<double>(*batch);
+  return compute_typed<float>(*batch);
+}
+
+template <class S>
+Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
+  const std::size_t n = b.n, nv = static_cast<std::size_t>(model_.nv);
+  const std::size_t vec = n * nv * sizeof(S), mat = vec * nv;
+
+  // where each array goes in the two blocks
+  struct Input {
+    const void* from;
+    std::size_t bytes, at;
+  };
+  BlockLayout in_layout;
+  Input inputs[] = {{b.q, vec, 0}, {b.qd, vec, 0}, {b.u, vec, 0}, {b.fext, 6 * vec, 0}, {b.minv, mat, 0}};
+  for (Input& i : inputs)
+    if (i.from) i.at = in_layout.add(i.bytes);
+  BlockLayout out_layout;
+  std::size_t out_at[kOutputCount] = {};
+  for (int f = 0; f < kOutputCount; ++f)
+    if (b.outputs & (1u << f)) out_at[f] = out_layout.add((plugin::kMatrixOutputs & (1u << f)) ? mat : vec);
+  const std::size_t status_at = out_layout.add(n * sizeof(std::uint32_t));
+
+  for (Allocation* a : {&h_in_, &d_in_})
+    if (Status s = a->reserve(in_layout.size()); !s) return s;
+  for (Allocation* a : {&h_out_, &d_out_})
+    if (Status s = a->reserve(out_layout.size()); !s) return s;
+
+  // the host's part: inputs into the pinned block
+  BatchPointers<S> p;
+  p.n = n;
+  p.outputs = b.outputs;
+  p.tau_input = b.input_kind == RBDGRAD_INPUT_TAU;
+  const S** device_inputs[] = {&p.q, &p.qd, &p.u, &p.fext, &p.minv};
+  for (int k = 0; k < 5; ++k) {
+    if (!inputs[k].from) continue;
+    std::memcpy(h_in_.as<unsigned char>() + inputs[k].at, inputs[k].from, inputs[k].bytes);
+    *device_inputs[k] = reinterpret_cast<const S*>(d_in_.as<unsigned char>() + inputs[k].at);
+  }
+  for (int f = 0; f < kOutputCount; ++f)
+    if (b.outputs & (1u << f)) p.out[f] = reinterpret_cast<S*>(d_out_.as<unsigned char>() + out_at[f]);
+  p.status = reinterpret_cast<std::uint32_t*>(d_out_.as<unsigned char>() + status_at);
+
+  // the device's part, in order on the stream: copy in, one launch, copy out
+  if (Status s = cuda_status(cudaMemcpyAsync(d_in_.data(), h_in_.data(), in_layout.size(), cudaMemcpyHostToDevice, stream_),
+                             "copying the batch to the device");
+      !s)
+    return s;
+  if (Status s = cuda_status(launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream_), "launching the fused kernel");
+      !s)
+    return s;
+  if (Status s = cuda_status(
+          cudaMemcpyAsync(h_out_.data(), d_out_.data(), out_layout.size(), cudaMemcpyDeviceToHost, stream_),
+          "copying the results from the device");
+      !s)
+    return s;
+  if (Status s = cuda_status(cudaStreamSynchronize(stream_), "running the fused kernel"); !s) return s;
+
+  // outputs out of the pinned block
+  for (int f = 0; f < kOutputCount; ++f)
+    if (b.outputs & (1u << f))
+      std::memcpy(caller_output(b, f), h_out_.as<unsigned char>() + out_at[f],
+                  (plugin::kMatrixOutputs & (1u << f)) ? mat : vec);
+  const auto* status = reinterpret_cast<const std::uint32_t*>(h_out_.as<unsigned char>() + status_at);
+  std::size_t failures = 0, first = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (status[k] == 0) {
+      if (b.state_status) b.state_status[k] = 0;
+      continue;
+    }
+    if (failures++ == 0) first = k;
+    if (b.state_status)
+      b.state_status[k] = static_cast<std::int32_t>(plugin::error_code_from_status(state_failure(status[k], model_).code()));
+  }
+  if (failures == 0) return Status::ok();
+  const Status s = state_failure(status[first], model_);
+  std::string message = "state " + std::to_string(first) + ": " + s.message();
+  if (failures > 1) message += " (and " + std::to_string(failures - 1) + " more failed states, see state_status)";
+  return Status(s.code(), std::move(message));
+}
+
+}  // namespace rbdgrad::cuda

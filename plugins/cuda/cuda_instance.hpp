@@ -1,0 +1,66 @@
+// One model on one GPU: the robot constants uploaded once (f64 and f32), the kernel's workspace
+// allocated once, a stream, and one pinned host block and one device block per direction that
+// grow by size class. compute() copies the inputs into the pinned block, then on the stream: one
+// copy in, one kernel launch for the whole batch, one copy out; then the outputs out of the
+// pinned block into the caller's arrays.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <cstddef>
+#include <memory>
+
+#include "device/fused_state.hpp"
+#include "device_memory.hpp"
+#include "rbdgrad/model.hpp"
+#include "rbdgrad/plugin_api.h"
+#include "rbdgrad/status.hpp"
+
+namespace rbdgrad::cuda {
+
+// Largest model the instance takes: bounds the workspace of one thread slot.
+inline constexpr int kMaxNv = 64;
+// Device memory for the kernel's workspace; the number of thread slots follows from it.
+inline constexpr std::size_t kWorkspaceBudgetBytes = std::size_t{1} << 30;
+
+class CudaInstance {
+ public:
+  /// \param[in] model a validated model (model_from_desc), nv <= kMaxNv (else unimplemented).
+  /// \param[in] device the CUDA device index.
+  /// \param[out] out set on success. Errors: unavailable (no driver or GPU, no such device, out of
+  ///             device memory), unimplemented (model too large).
+  static Status create(const Model& model, int device, std::unique_ptr<CudaInstance>& out);
+  ~CudaInstance();
+  CudaInstance(const CudaInstance&) = delete;
+  CudaInstance& operator=(const CudaInstance&) = delete;
+
+  /// Validates `batch` (f64 or f32; fixed point is unimplemented) and computes it. Every state is
+  /// attempted; state_status says which failed, and the error names the first of them:
+  /// "state 3: fd_derivatives: result is not finite (NaN or Inf)". Not reentrant.
+  Status compute(const rbdgrad_batch* batch);
+
+  int device() const { return device_; }
+  std::size_t slots() const { return slots_; }
+
+ private:
+  explicit CudaInstance(const Model& model, int device);
+  Status init();
+  template <class S> Status upload_model(Allocation& block, ModelView<S>& view);
+  template <class S> Status compute_typed(const rbdgrad_batch& batch);
+  template <class S> const ModelView<S>& view() const;
+
+  Model model_;
+  int device_;
+  cudaStream_t stream_ = nullptr;
+  Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
+  Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64
+  Allocation d_model_f32_{MemoryKind::kDevice};  // same in f32
+  ModelView<double> view_f64_;
+  ModelView<float> view_f32_;
+  Allocation d_scratch_{MemoryKind::kDevice};    // (slots_ x WorkspaceView::scalars) in f64 size
+  std::size_t slots_ = 0;
+  Allocation h_in_{MemoryKind::kPinnedHost}, d_in_{MemoryKind::kDevice};    // q | qd | u | fext | minv
+  Allocation h_out_{MemoryKind::kPinnedHost}, d_out_{MemoryKind::kDevice};  // outputs | status
+};
+
+}  // namespace rbdgrad::cuda

@@ -1,0 +1,125 @@
+// The CUDA backend's plugin table: the completely fused kernel (one launch per batch) on one GPU
+// per instance, in f64 and f32. Without a driver or GPU the library still loads, and every
+// instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
+#include <cstdio>
+#include <memory>
+
+#include "common/batch_view.hpp"
+#include "common/error.hpp"
+#include "common/model_desc.hpp"
+#include "common/options.hpp"
+#include "cuda_device.hpp"
+#include "cuda_instance.hpp"
+#include "rbdgrad/plugin_api.h"
+
+#ifndef RBDGRAD_VERSION
+#define RBDGRAD_VERSION "unknown"
+#endif
+
+// Completes the ABI's opaque instance type for this plugin.
+struct rbdgrad_instance {
+  std::unique_ptr<rbdgrad::cuda::CudaInstance> gpu;
+};
+
+namespace rbdgrad::plugin {
+namespace {
+
+// the oldest host minor this plugin works with: it uses nothing added after 1.0
+constexpr std::uint32_t kMinHostMinor = 0;
+constexpr std::uint32_t kPrecisions = RBDGRAD_PRECISION_F64 | RBDGRAD_PRECISION_F32;
+// more devices than this is a typo, not a machine
+constexpr std::uint64_t kMaxDevice = 1023;
+
+rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
+  return guarded([&]() -> Status {
+    if (info == nullptr) return invalid_argument("info is NULL");
+    if (info->struct_size < sizeof(rbdgrad_plugin_info))
+      return invalid_argument("info.struct_size is " + std::to_string(info->struct_size) + ", expected at least " +
+                              std::to_string(sizeof(rbdgrad_plugin_info)));
+    info->name = "cuda";
+    info->version = RBDGRAD_VERSION;
+    info->precisions = kPrecisions;
+    info->outputs = kAllOutputs;
+    info->max_batch = 0;  // the I/O blocks grow with the batch
+    info->max_nv = cuda::kMaxNv;
+    return Status::ok();
+  });
+}
+
+// The request first (cheap), then the model's size, then whether there is a GPU at all.
+rbdgrad_error* can_run(const rbdgrad_model_desc* model, std::uint32_t precision, std::uint32_t outputs, std::uint64_t n) {
+  return guarded([&]() -> Status {
+    if (model == nullptr) return invalid_argument("model is NULL");
+    if (model->struct_size < sizeof(rbdgrad_model_desc))
+      return invalid_argument("model_desc.struct_size is " + std::to_string(model->struct_size) + ", expected at least " +
+                              std::to_string(sizeof(rbdgrad_model_desc)));
+    if (model->nv < 1) return invalid_argument("model_desc.nv is 0");
+    if (n < 1) return invalid_argument("n is 0: a batch holds at least one state");
+    if (Status s = check_request(precision, outputs, kPrecisions, kAllOutputs); !s) return s;
+    if (model->nv > static_cast<std::uint32_t>(cuda::kMaxNv))
+      return unimplemented("model has " + std::to_string(model->nv) + " joints, more than the " +
+                           std::to_string(cuda::kMaxNv) + " the cuda backend supports");
+    return cuda::check_device(0);
+  });
+}
+
+rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_options* options,
+                               rbdgrad_instance** instance) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr) return invalid_argument("instance is NULL");
+    *instance = nullptr;
+    if (desc == nullptr) return invalid_argument("model is NULL");
+    // device: the CUDA device index; each visible GPU is its own instance
+    if (Status s = check_options(options, {"device"}); !s) return s;
+    std::uint64_t device = 0;
+    if (Status s = option_uint(options, "device", 0, kMaxDevice, device); !s) return s;
+    Model model;
+    if (Status s = model_from_desc(*desc, model); !s) return s;
+    auto made = std::make_unique<rbdgrad_instance>();
+    if (Status s = cuda::CudaInstance::create(model, static_cast<int>(device), made->gpu); !s) return s;
+    *instance = made.release();
+    return Status::ok();
+  });
+}
+
+rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr || !instance->gpu) return invalid_argument("instance is NULL");
+    return instance->gpu->compute(batch);
+  });
+}
+
+void destroy_instance(rbdgrad_instance* instance) {
+  guarded([&] { delete instance; });
+}
+
+constexpr rbdgrad_plugin_api kApi = {
+    sizeof(rbdgrad_plugin_api),
+    RBDGRAD_PLUGIN_API_MAJOR,
+    RBDGRAD_PLUGIN_API_MINOR,
+    &get_info,
+    &can_run,
+    &create_instance,
+    &compute,
+    &destroy_instance,
+    &error_code,
+    &error_message,
+    &error_delete,
+};
+
+}  // namespace
+}  // namespace rbdgrad::plugin
+
+// The one exported symbol (exports.map hides everything else).
+extern "C" __attribute__((visibility("default"))) const rbdgrad_plugin_api* rbdgrad_plugin_entry(
+    std::uint32_t host_api_major, std::uint32_t host_api_minor) {
+  using rbdgrad::plugin::kMinHostMinor;
+  if (host_api_major != RBDGRAD_PLUGIN_API_MAJOR || host_api_minor < kMinHostMinor) {
+    // the ABI gives the plugin no other channel to say why
+    std::fprintf(stderr, "rbdgrad cuda plugin: host plugin API %u.%u is not compatible with %d.%d (needs major %d, minor >= %u)\n",
+                 host_api_major, host_api_minor, RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR,
+                 RBDGRAD_PLUGIN_API_MAJOR, kMinHostMinor);
+    return nullptr;
+  }
+  return &rbdgrad::plugin::kApi;
+}

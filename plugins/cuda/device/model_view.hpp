@@ -1,0 +1,62 @@
+// The robot constants as the fused kernel reads them: flat arrays in one block of S and one block
+// of int, uploaded once per instance (model_upload.hpp builds them). A view is a few pointers,
+// passed to the kernel by value.
+#pragma once
+
+#include "spatial.hpp"
+
+namespace rbdgrad::cuda {
+
+template <class S>
+struct ModelView {
+  int nv = 0;
+  const int* parent = nullptr;        // (nv) parent joint, -1 for the world; parent[i] < i
+  const int* subtree_end = nullptr;   // (nv) one past the last joint of joint i's subtree
+  const int* prismatic = nullptr;     // (nv) 1 prismatic along z, 0 revolute about z
+  const S* joint_rotation = nullptr;  // (9 nv) joint frame in the parent body frame, row-major
+  const S* joint_translation = nullptr;  // (3 nv)
+  const S* mass = nullptr;            // (nv)
+  const S* com = nullptr;             // (3 nv) body frame
+  const S* inertia_com = nullptr;     // (9 nv) about the centre of mass, row-major
+  const S* link_rotation = nullptr;   // (9 nv) URDF link frame to body frame, row-major
+  S gravity[3] = {S(0), S(0), S(0)};  // world frame
+
+  // i ancestor-or-self of j, in depth-first order
+  RBDGRAD_HD bool contains(int i, int j) const { return i <= j && j < subtree_end[i]; }
+  // (i, j) can be nonzero in M, L and the inverse-dynamics derivatives: one is an ancestor of the other
+  RBDGRAD_HD bool related(int i, int j) const { return contains(i, j) || contains(j, i); }
+
+  RBDGRAD_HD Mat3<S> mat3(const S* base, int i) const {
+    Mat3<S> out;
+    for (int k = 0; k < 9; ++k) out.m[k] = base[9 * i + k];
+    return out;
+  }
+};
+
+// Where each array starts, in scalars of the S block and ints of the int block.
+struct ModelLayout {
+  static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;
+  static constexpr int kIntsPerJoint = 3;
+  static int scalars(int nv) { return kScalarsPerJoint * nv; }
+  static int ints(int nv) { return kIntsPerJoint * nv; }
+};
+
+// A view onto blocks laid out as ModelLayout says (host or device memory alike).
+template <class S>
+ModelView<S> model_view(int nv, const S* scalars, const int* ints, const S (&gravity)[3]) {
+  ModelView<S> m;
+  m.nv = nv;
+  m.parent = ints;
+  m.subtree_end = ints + nv;
+  m.prismatic = ints + 2 * nv;
+  m.joint_rotation = scalars;
+  m.joint_translation = m.joint_rotation + 9 * nv;
+  m.mass = m.joint_translation + 3 * nv;
+  m.com = m.mass + nv;
+  m.inertia_com = m.com + 3 * nv;
+  m.link_rotation = m.inertia_com + 9 * nv;
+  for (int r = 0; r < 3; ++r) m.gravity[r] = gravity[r];
+  return m;
+}
+
+}  // namespace rbdgrad::cuda

@@ -1,0 +1,46 @@
+#include "device_memory.hpp"
+
+#include <cuda_runtime_api.h>
+
+#include <bit>
+
+#include "cuda_device.hpp"
+
+namespace rbdgrad::cuda {
+
+namespace {
+constexpr std::size_t kSmallestClass = 64 * 1024;
+}  // namespace
+
+Status Allocation::reserve(std::size_t bytes) {
+  if (bytes <= capacity_) return Status::ok();
+  return allocate(std::bit_ceil(bytes < kSmallestClass ? kSmallestClass : bytes));
+}
+
+Status Allocation::allocate_zeroed(std::size_t bytes) {
+  if (Status s = allocate(bytes); !s) return s;
+  return cuda_status(cudaMemset(data_, 0, bytes), "cudaMemset of the workspace");
+}
+
+Status Allocation::allocate(std::size_t bytes) {
+  release();
+  const cudaError_t e = kind_ == MemoryKind::kDevice ? cudaMalloc(&data_, bytes) : cudaMallocHost(&data_, bytes);
+  if (e != cudaSuccess) {
+    data_ = nullptr;
+    return cuda_status(e, (kind_ == MemoryKind::kDevice ? "cudaMalloc of " : "cudaMallocHost of ") +
+                              std::to_string(bytes) + " bytes");
+  }
+  capacity_ = bytes;
+  return Status::ok();
+}
+
+void Allocation::release() {
+  if (data_ == nullptr) return;
+  // errors here mean the context is gone already: nothing left to free
+  if (kind_ == MemoryKind::kDevice) cudaFree(data_);
+  else cudaFreeHost(data_);
+  data_ = nullptr;
+  capacity_ = 0;
+}
+
+}  // namespace rbdgrad::cuda

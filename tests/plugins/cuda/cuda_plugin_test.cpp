@@ -1,0 +1,323 @@
+// Tests for plugins/cuda through the C ABI (librbdgrad_cuda.so loaded with dlopen, as the daemon
+// loads it). Without a GPU: the plugin loads, describes itself, and reports UNAVAILABLE with the
+// reason; the GPU tests skip with that reason. With a GPU: every embedded robot, f64 and f32,
+// every output case, both input kinds, external forces and a caller's M^-1, batch sizes 1 to
+// 65536, outputs poisoned with NaN before each run, against the core library (which the CPU
+// plugin equals bit for bit) and the Pinocchio reference data; per-state failures as the core's.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+
+#include "../support/plugin_harness.hpp"
+#include "common/error.hpp"
+#include "common/model_desc.hpp"
+#include "cuda_test_support.hpp"
+#include "rbdgrad/io/state_file.hpp"
+
+namespace rbdgrad::testing {
+namespace {
+
+const rbdgrad_plugin_api* api() {
+  static const rbdgrad_plugin_api* table =
+      load_plugin_entry(RBDGRAD_CUDA_PLUGIN_PATH)(RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR);
+  return table;
+}
+
+const plugin::ModelDesc& iiwa() {
+  static const plugin::ModelDesc desc(load_embedded("iiwa14"));
+  return desc;
+}
+
+// Why this machine cannot run the plugin (the message of the instance it refused), or nothing.
+const std::optional<std::string>& no_gpu_reason() {
+  static const std::optional<std::string> reason = []() -> std::optional<std::string> {
+    std::optional<PluginError> error;
+    InstancePtr instance = create(api(), iiwa().desc(), {}, &error);
+    if (error && error->code == RBDGRAD_ERROR_UNAVAILABLE) return error->message;
+    return std::nullopt;
+  }();
+  return reason;
+}
+
+#define SKIP_WITHOUT_GPU()                                                   \
+  do {                                                                       \
+    if (no_gpu_reason()) GTEST_SKIP() << "no GPU: " << *no_gpu_reason();     \
+  } while (0)
+
+TEST(CudaPlugin, LoadsAndDescribesItself) {
+  ASSERT_NE(api(), nullptr);
+  EXPECT_EQ(api()->api_major, static_cast<std::uint32_t>(RBDGRAD_PLUGIN_API_MAJOR));
+  rbdgrad_plugin_info info{};
+  info.struct_size = sizeof(info);
+  ASSERT_FALSE(take(api(), api()->get_info(&info)));
+  EXPECT_STREQ(info.name, "cuda");
+  EXPECT_EQ(info.precisions, static_cast<std::uint32_t>(RBDGRAD_PRECISION_F64 | RBDGRAD_PRECISION_F32));
+  EXPECT_EQ(info.outputs, kEveryOutput);
+  EXPECT_EQ(info.max_nv, 64u);
+}
+
+TEST(CudaPlugin, ReportsUnavailableWithoutGpu) {
+  if (!no_gpu_reason()) GTEST_SKIP() << "a GPU is present: this checks the machines without one";
+  EXPECT_EQ(no_gpu_reason()->rfind("no CUDA device: ", 0), 0u) << *no_gpu_reason();
+  EXPECT_GT(no_gpu_reason()->size(), std::string("no CUDA device: cudaGetDeviceCount: ").size()) << *no_gpu_reason();
+  // the scheduler hears the same when it asks
+  const std::optional<PluginError> e =
+      take(api(), api()->can_run(&iiwa().desc(), RBDGRAD_PRECISION_F64, kEveryOutput, 16));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNAVAILABLE);
+  EXPECT_EQ(e->message, *no_gpu_reason());
+}
+
+TEST(CudaPlugin, FixedPointAndLargeModelsAreUnsupported) {
+  std::optional<PluginError> e =
+      take(api(), api()->can_run(&iiwa().desc(), RBDGRAD_PRECISION_FIXED_Q16_16, kEveryOutput, 16));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNSUPPORTED) << e->message;
+  const plugin::ModelDesc large(random_model(5, 65, TreeShape::kBranching));
+  create(api(), large.desc(), {}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNSUPPORTED) << e->message;
+  EXPECT_NE(e->message.find("more than the 64"), std::string::npos) << e->message;
+}
+
+TEST(CudaPlugin, OptionsAreChecked) {
+  std::optional<PluginError> e;
+  create(api(), iiwa().desc(), {{"threads", "2"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  create(api(), iiwa().desc(), {{"device", "first"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  SKIP_WITHOUT_GPU();
+  create(api(), iiwa().desc(), {{"device", "1000"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNAVAILABLE) << e->message;
+  EXPECT_NE(e->message.find("CUDA device 1000 not present"), std::string::npos) << e->message;
+}
+
+TEST(CudaPlugin, FixedPointBatchIsUnsupported) {
+  SKIP_WITHOUT_GPU();
+  InstancePtr instance = create(api(), iiwa().desc(), {});
+  ASSERT_TRUE(instance);
+  BatchArrays<std::int32_t> a(4, 7);
+  const rbdgrad_batch b = a.batch(RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, kEveryOutput, false, false);
+  const std::optional<PluginError> e = take(api(), api()->compute(instance.get(), &b));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNSUPPORTED) << e->message;
+}
+
+template <class S>
+rbdgrad_precision precision() {
+  return std::is_same_v<S, double> ? RBDGRAD_PRECISION_F64 : RBDGRAD_PRECISION_F32;
+}
+
+// Runs one poisoned batch through the plugin and compares it with the core.
+template <class S>
+void run_and_compare(rbdgrad_instance* instance, const Model& model, const std::vector<StateInputs>& states,
+                     const OutputCase& c, bool tau_input, const std::string& where) {
+  CudaBatch<S> a(states, model.nv, tau_input);
+  a.poison();
+  const rbdgrad_batch b = a.batch(precision<S>(), c, tau_input);
+  const std::optional<PluginError> e = take(api(), api()->compute(instance, &b));
+  ASSERT_FALSE(e) << where << ": " << e->message;
+  for (std::size_t k = 0; k < a.n; ++k) ASSERT_EQ(a.status[k], 0) << where << " state " << k;
+  const Comparison cmp = compare_with_core(model, a, c, tau_input);
+  ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
+  EXPECT_TRUE(cmp.within_bounds<S>()) << where << ":" << cmp.summary();
+  if (&c == &kOutputCases[0] && a.n >= 1000) std::printf("%s:%s\n", where.c_str(), cmp.summary().c_str());
+}
+
+constexpr std::size_t kBatchSizes[] = {1, 7, 32, 33, 1000};
+
+template <class S>
+void check_robot(const std::string& robot) {
+  const Model model = robot_model(robot);
+  const plugin::ModelDesc desc(model);
+  std::optional<PluginError> error;
+  // one instance for every size and precision: its buffers grow and are reused
+  InstancePtr instance = create(api(), desc.desc(), {{"device", "0"}}, &error);
+  ASSERT_FALSE(error) << error->message;
+  const std::vector<StateInputs> all = random_inputs(model, kBatchSizes[4], 7);
+  for (const std::size_t n : kBatchSizes) {
+    const std::vector<StateInputs> states(all.begin(), all.begin() + static_cast<long>(n));
+    for (const bool tau_input : {true, false})
+      for (const OutputCase& c : kOutputCases) {
+        const std::string where = robot + " " + scalar_name<S>() + " n=" + std::to_string(n) + " " + c.name +
+                                  (tau_input ? ", tau input" : ", qdd input");
+        run_and_compare<S>(instance.get(), model, states, c, tau_input, where);
+        if (::testing::Test::HasFatalFailure()) return;
+      }
+  }
+}
+
+class CudaConformance : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(CudaConformance, F64MatchesCore) {
+  SKIP_WITHOUT_GPU();
+  check_robot<double>(GetParam());
+}
+TEST_P(CudaConformance, F32MatchesCore) {
+  SKIP_WITHOUT_GPU();
+  check_robot<float>(GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, CudaConformance,
+                         ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq", "random_tree"),
+                         [](const auto& param_info) { return std::string(param_info.param); });
+
+// A small batch, every case: the target of compute-sanitizer (memcheck, racecheck) runs.
+TEST(CudaSmallBatch, Iiwa14F64SevenStates) {
+  SKIP_WITHOUT_GPU();
+  const Model model = load_embedded("iiwa14");
+  InstancePtr instance = create(api(), iiwa().desc(), {});
+  ASSERT_TRUE(instance);
+  const std::vector<StateInputs> states = random_inputs(model, 7, 5);
+  for (const bool tau_input : {true, false})
+    for (const OutputCase& c : kOutputCases)
+      run_and_compare<double>(instance.get(), model, states, c, tau_input,
+                              std::string("iiwa14 f64 n=7 ") + c.name + (tau_input ? ", tau input" : ", qdd input"));
+}
+
+// A large batch: more states than workspace slots for the larger robots, so threads loop.
+template <class S>
+void check_large_batch(const std::string& robot) {
+  const Model model = robot_model(robot);
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance = create(api(), desc.desc(), {});
+  ASSERT_TRUE(instance);
+  const std::vector<StateInputs> states = random_inputs(model, 65536, 11);
+  for (const bool tau_input : {true, false})
+    run_and_compare<S>(instance.get(), model, states, kOutputCases[1], tau_input,
+                       robot + " " + scalar_name<S>() + " n=65536 " + kOutputCases[1].name +
+                           (tau_input ? ", tau input" : ", qdd input"));
+}
+
+TEST(CudaLargeBatch, Iiwa14F64) {
+  SKIP_WITHOUT_GPU();
+  check_large_batch<double>("iiwa14");
+}
+TEST(CudaLargeBatch, Iiwa14F32) {
+  SKIP_WITHOUT_GPU();
+  check_large_batch<float>("iiwa14");
+}
+TEST(CudaLargeBatch, TalosReducedF64) {
+  SKIP_WITHOUT_GPU();
+  check_large_batch<double>("talos_reduced");
+}
+
+// States the core refuses fail the same way, with the core's message, and the others compute.
+TEST(CudaPerState, FailuresMatchTheCore) {
+  SKIP_WITHOUT_GPU();
+  // the model as the plugin sees it: the ABI carries no joint names, messages say "joint_<i>"
+  Model model;
+  ASSERT_TRUE(plugin::model_from_desc(iiwa().desc(), model));
+  InstancePtr instance = create(api(), iiwa().desc(), {});
+  ASSERT_TRUE(instance);
+  std::vector<StateInputs> states = random_inputs(model, 7, 3);
+  states[3].q(2) = std::numeric_limits<double>::quiet_NaN();
+  states[5].qd(4) = std::numeric_limits<double>::infinity();
+  for (const OutputCase& c : kOutputCases) {
+    CudaBatch<double> a(states, model.nv, true);
+    a.poison();
+    const rbdgrad_batch b = a.batch(RBDGRAD_PRECISION_F64, c, true);
+    const std::optional<PluginError> e = take(api(), api()->compute(instance.get(), &b));
+    Workspace ws(model);
+    std::string expected;
+    for (std::size_t k = 0; k < states.size(); ++k) {
+      std::map<std::uint32_t, Eigen::MatrixXd> ref;
+      const Status s = reference_state(model, ws, reference_inputs(a, k, c), true, c.outputs, ref);
+      const std::int32_t code = s ? 0 : static_cast<std::int32_t>(plugin::error_code_from_status(s.code()));
+      EXPECT_EQ(a.status[k], code) << c.name << " state " << k << ": " << s.message();
+      if (!s && expected.empty()) expected = "state " + std::to_string(k) + ": " + s.message();
+    }
+    ASSERT_FALSE(expected.empty()) << c.name;
+    ASSERT_TRUE(e) << c.name;
+    EXPECT_EQ(e->code, RBDGRAD_ERROR_NUMERICAL) << c.name;
+    EXPECT_EQ(e->message.substr(0, expected.size()), expected) << c.name;
+  }
+}
+
+// The Pinocchio 3.7.0 reference (tests/data/reference): the bounds of the core's own test
+// (tests/core/reference_accuracy_test.cpp): f64 within 1e-10, f32 median 1e-4 and worst 1e-3.
+template <class S>
+void check_reference(const std::string& robot) {
+  io::StateFile file;
+  std::string read_error;
+  ASSERT_TRUE(io::read_state_file(std::string(RBDGRAD_TEST_DATA_DIR) + "/reference/" + robot + ".jsonl", file, read_error))
+      << read_error;
+  const Model model = load_embedded(robot);
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance = create(api(), desc.desc(), {});
+  ASSERT_TRUE(instance);
+  std::vector<StateInputs> tau_states, qdd_states;
+  for (const io::StateRecord& r : file.states) {
+    StateInputs s;
+    auto vec = [&](const char* field) { return Eigen::Map<const Eigen::VectorXd>(r.at(field).data(), model.nv).eval(); };
+    s.q = vec("q");
+    s.qd = vec("qd");
+    s.tau = vec("tau");
+    s.qdd = vec("qdd");
+    s.fext = Eigen::VectorXd::Zero(6 * model.nv);
+    s.minv = Eigen::MatrixXd::Zero(model.nv, model.nv);
+    tau_states.push_back(s);
+  }
+  // forward side from tau; inverse side at the reference qdd, as the core's test does
+  const OutputCase forward{"forward", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_M | RBDGRAD_OUTPUT_MINV |
+                                          RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD, false, false};
+  const OutputCase inverse{"inverse", RBDGRAD_OUTPUT_TAU | RBDGRAD_OUTPUT_DTAU_DQ | RBDGRAD_OUTPUT_DTAU_DQD, false, false};
+  const std::pair<std::uint32_t, const char*> fields[] = {
+      {RBDGRAD_OUTPUT_QDD, "qdd"},         {RBDGRAD_OUTPUT_M, "M"},          {RBDGRAD_OUTPUT_MINV, "Minv"},
+      {RBDGRAD_OUTPUT_DQDD_DQ, "dqdd_dq"}, {RBDGRAD_OUTPUT_DQDD_DQD, "dqdd_dqd"}, {RBDGRAD_OUTPUT_TAU, "tau_id"},
+      {RBDGRAD_OUTPUT_DTAU_DQ, "dtau_dq"}, {RBDGRAD_OUTPUT_DTAU_DQD, "dtau_dqd"}};
+  for (const bool tau_input : {true, false}) {
+    const OutputCase& c = tau_input ? forward : inverse;
+    CudaBatch<S> a(tau_states, model.nv, tau_input);
+    a.poison();
+    const rbdgrad_batch b = a.batch(precision<S>(), c, tau_input);
+    const std::optional<PluginError> e = take(api(), api()->compute(instance.get(), &b));
+    ASSERT_FALSE(e) << e->message;
+    for (const auto& [flag, field] : fields) {
+      if (!(c.outputs & flag)) continue;
+      const int f = cuda::output_index(flag);
+      const bool matrix = CudaBatch<S>::is_matrix(flag);
+      const std::size_t per = matrix ? a.nv * a.nv : a.nv;
+      std::vector<double> errors;
+      for (std::size_t k = 0; k < a.n; ++k) {
+        const std::vector<double>& ref = file.states[k].at(field);
+        ASSERT_EQ(ref.size(), per) << field;
+        Eigen::VectorXd got(static_cast<Eigen::Index>(per));
+        for (std::size_t i = 0; i < per; ++i) got(static_cast<Eigen::Index>(i)) = a.out[f][k * per + i];
+        ASSERT_TRUE(got.allFinite()) << robot << " " << field << " state " << k;
+        errors.push_back(relative_error(got, Eigen::Map<const Eigen::VectorXd>(ref.data(), static_cast<Eigen::Index>(per))));
+      }
+      const double median = Comparison::median(errors), worst = Comparison::worst(errors);
+      std::printf("%s %s %s median %.1e worst %.1e\n", robot.c_str(), scalar_name<S>(), field, median, worst);
+      if constexpr (std::is_same_v<S, double>) {
+        EXPECT_LE(worst, 1e-10) << robot << " " << field;
+      } else {
+        EXPECT_LE(median, 1e-4) << robot << " " << field;
+        EXPECT_LE(worst, 1e-3) << robot << " " << field;
+      }
+    }
+  }
+}
+
+class CudaReference : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(CudaReference, F64Within1e10) {
+  SKIP_WITHOUT_GPU();
+  check_reference<double>(GetParam());
+}
+TEST_P(CudaReference, F32Within1e4MedianAnd1e3Worst) {
+  SKIP_WITHOUT_GPU();
+  check_reference<float>(GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, CudaReference, ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq"),
+                         [](const auto& param_info) { return std::string(param_info.param); });
+
+}  // namespace
+}  // namespace rbdgrad::testing
