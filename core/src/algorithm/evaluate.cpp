@@ -30,7 +30,8 @@ Status evaluate_outputs(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
     }
   } else if (tau_input && (want(kOutputQdd) || want_id)) {
     if (Status s = forward_dynamics(model, ws, q, qd, input, fext); !s) return s;
-  } else if (!tau_input) {
+  } else if (!tau_input && (want(kOutputQdd) || want_id)) {
+    // not when only M is asked for: the input may then be absent (the plugin ABI allows NULL)
     ws.qdd = input;
   }
 

@@ -207,6 +207,9 @@ TEST(CpuPluginCompute, BadBatchNamesTheField) {
   m_only.qdd = m_only.tau = m_only.dtau_dq = nullptr;
   m_only.state_status = nullptr;
   EXPECT_FALSE(take(api(), api()->compute(instance.get(), &m_only)));
+  // with qdd as the input kind too (the input is then not read either)
+  m_only.input_kind = RBDGRAD_INPUT_QDD;
+  EXPECT_FALSE(take(api(), api()->compute(instance.get(), &m_only)));
 }
 
 // A NaN in one state fails that state only: the others are computed exactly as without it.
