@@ -4,10 +4,11 @@
 // from tau (M^-1 computed on the GPU), outputs d qdd/d q and d qdd/d qd, random states; iiwa14 and
 // the humanoid (talos_reduced), f32 and f64, N from 16 to 65536. Reported: the median of the
 // repetitions, in microseconds per batch (real time). Without a GPU every case is skipped with the
-// plugin's reason.
+// plugin's reason. The environment variable RBDGRAD_CUDA_PLUGIN names another plugin file.
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <random>
@@ -76,7 +77,11 @@ struct Backend {
 
   PluginInstance* instance(const std::string& robot) {
     if (!plugin && unavailable.empty()) {
-      if (Status s = Plugin::load(RBDGRAD_CUDA_PLUGIN_PATH, plugin); !s) unavailable = s.to_string();
+      // RBDGRAD_CUDA_PLUGIN overrides the build tree's plugin (a copied build on a GPU machine)
+      const char* path = std::getenv("RBDGRAD_CUDA_PLUGIN");
+      if (Status s = Plugin::load(path != nullptr ? path : RBDGRAD_CUDA_PLUGIN_PATH, plugin); !s) {
+        unavailable = s.to_string();
+      }
     }
     if (!unavailable.empty()) return nullptr;
     auto& slot = instances[robot];
