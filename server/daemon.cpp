@@ -119,6 +119,11 @@ Status Daemon::start() {
   builder.SetMaxSendMessageSize(max_bytes);
   // gRPC sets SO_REUSEPORT by default: a second daemon on the same port would then share it silently
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  // The reflection service is a synchronous one: its polling threads wait on their queues with this
+  // timeout, and destroying the server waits for them, up to the default 10 s (measured on 16
+  // cores after a request had finished on an instance-pool thread). Idle pollers now wake every
+  // 100 ms, which costs nothing measurable.
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::CQ_TIMEOUT_MSEC, 100);
   builder.RegisterService(service_.get());
 
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
@@ -154,7 +159,8 @@ void Daemon::stop() {
   // has closed its connection, and an idle client (no call, nothing polling its socket) never
   // reads the GOAWAY, so Shutdown would sit out the whole deadline. Polled: stopping is rare,
   // and the request path stays free of notifications.
-  const auto deadline = std::chrono::steady_clock::now() + options_.shutdown_grace;
+  const auto began = std::chrono::steady_clock::now();
+  const auto deadline = began + options_.shutdown_grace;
   while (!service_->drained() && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
@@ -164,9 +170,14 @@ void Daemon::stop() {
   }
   // a moment for calls outside the Dynamics compute path (metadata, health) to answer; then the
   // remaining connections are closed
+  const auto drained = std::chrono::steady_clock::now();
   server_->Shutdown(std::chrono::system_clock::now() + kCloseGrace);
   server_->Wait();
+  const auto ms = [](auto d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); };
+  const auto closed = std::chrono::steady_clock::now();
   server_.reset();
+  spdlog::info("requests drained in {} ms, connections closed in {} ms, server released in {} ms",
+               ms(drained - began), ms(closed - drained), ms(std::chrono::steady_clock::now() - closed));
   if (!options_.config.listen.unix_socket.empty()) remove_own_socket(options_.config.listen.unix_socket, socket_inode_);
   addresses_.clear();
   tcp_port_ = 0;
