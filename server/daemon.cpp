@@ -149,7 +149,7 @@ Status Daemon::start() {
   return Status::ok();
 }
 
-void Daemon::stop() {
+void Daemon::stop(bool for_exit) {
   if (!server_) return;
   // clients that watch health learn first; then streams are told; then gRPC stops accepting and
   // waits for the calls under way (cancelling what is left at the deadline)
@@ -175,9 +175,14 @@ void Daemon::stop() {
   server_->Wait();
   const auto ms = [](auto d) { return std::chrono::duration_cast<std::chrono::milliseconds>(d).count(); };
   const auto closed = std::chrono::steady_clock::now();
-  server_.reset();
-  spdlog::info("requests drained in {} ms, connections closed in {} ms, server released in {} ms",
-               ms(drained - began), ms(closed - drained), ms(std::chrono::steady_clock::now() - closed));
+  if (for_exit) {
+    (void)server_.release();  // deliberately not destroyed: see stop()'s comment
+    spdlog::info("requests drained in {} ms, connections closed in {} ms", ms(drained - began), ms(closed - drained));
+  } else {
+    server_.reset();
+    spdlog::info("requests drained in {} ms, connections closed in {} ms, server released in {} ms",
+                 ms(drained - began), ms(closed - drained), ms(std::chrono::steady_clock::now() - closed));
+  }
   if (!options_.config.listen.unix_socket.empty()) remove_own_socket(options_.config.listen.unix_socket, socket_inode_);
   addresses_.clear();
   tcp_port_ = 0;

@@ -62,7 +62,10 @@ class Daemon {
   /// their last response), then stops listening and closes the connections; whatever is left
   /// after shutdown_grace is cancelled. Removes the daemon's socket file. Idempotent; not
   /// concurrent with start().
-  void stop();
+  /// With `for_exit` (the process ends next), gRPC's server object is left to the process's end
+  /// instead of destroyed: on many-core machines its destructor waited 10 s for an idle gRPC
+  /// executor thread after requests had finished on instance-pool threads.
+  void stop(bool for_exit = false);
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return *backends_; }

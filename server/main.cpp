@@ -197,7 +197,7 @@ int main(int argc, char** argv) {
   const int signal = wait_for_stop_signal(stop);
   spdlog::info("shutting down (signal {}): finishing the requests in flight",
                signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "?");
-  daemon->stop();
+  daemon->stop(/*for_exit=*/true);
   // the addresses are no longer served
   if (ready_file != nullptr) std::remove(ready_file->c_str());
   spdlog::info("stopped");
