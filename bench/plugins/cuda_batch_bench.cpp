@@ -1,35 +1,27 @@
 // Benchmark for plugins/cuda, end to end as ../shared/anchors.md measures GRiD: host input buffers
-// in, host output buffers out, around one synchronous compute call through the plugin's C ABI
-// (dlopen'ed as the daemon does). The workload is the anchors' one: the forward-dynamics gradient
-// from tau (M^-1 computed on the GPU), outputs d qdd/d q and d qdd/d qd, random states; iiwa14 and
-// the humanoid (talos_reduced), f32 and f64, N from 16 to 65536. Reported: the median of the
-// repetitions, in microseconds per batch (real time). Without a GPU every case is skipped with the
-// plugin's reason. The environment variable RBDGRAD_CUDA_PLUGIN names another plugin file.
+// in, host output buffers out, around one synchronous CudaInstance::compute (what the plugin's
+// compute entry point calls), plus the kernel's own time from CUDA events (kernel_us). The
+// workload is the anchors' one: the forward-dynamics gradient from tau (M^-1 computed on the GPU),
+// outputs d qdd/d q and d qdd/d qd, random states; iiwa14 and the humanoid (talos_reduced), f32
+// and f64, N from 16 to 65536. Reported: the median of the repetitions, in microseconds per batch
+// (real time). Without a GPU every case is skipped with the reason.
 #include <benchmark/benchmark.h>
 
 #include <cstdint>
-#include <cstdlib>
 #include <map>
 #include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
-#include "common/model_desc.hpp"
-#include "plugin_loader.hpp"
+#include "cuda_instance.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
-
-#ifndef RBDGRAD_CUDA_PLUGIN_PATH
-#error "RBDGRAD_CUDA_PLUGIN_PATH must name the CUDA plugin"
-#endif
 
 namespace {
 
 using rbdgrad::Model;
 using rbdgrad::Status;
-using rbdgrad::server::Plugin;
-using rbdgrad::server::PluginInstance;
 
 Model load(const std::string& robot) {
   Model m;
@@ -69,25 +61,16 @@ struct Batch {
   }
 };
 
-// The plugin and one instance per robot, loaded once for all cases; the reason when unavailable.
+// One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::unique_ptr<Plugin> plugin;
-  std::map<std::string, std::unique_ptr<PluginInstance>> instances;
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;
   std::string unavailable;
 
-  PluginInstance* instance(const std::string& robot) {
-    if (!plugin && unavailable.empty()) {
-      // RBDGRAD_CUDA_PLUGIN overrides the build tree's plugin (a copied build on a GPU machine)
-      const char* path = std::getenv("RBDGRAD_CUDA_PLUGIN");
-      if (Status s = Plugin::load(path != nullptr ? path : RBDGRAD_CUDA_PLUGIN_PATH, plugin); !s) {
-        unavailable = s.to_string();
-      }
-    }
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot) {
     if (!unavailable.empty()) return nullptr;
     auto& slot = instances[robot];
     if (!slot) {
-      const rbdgrad::plugin::ModelDesc desc(load(robot));
-      if (Status s = plugin->create_instance(desc.desc(), {}, slot); !s) {
+      if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
         return nullptr;
       }
@@ -103,24 +86,27 @@ Backend& backend() {
 
 template <class S>
 void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision) {
-  PluginInstance* instance = backend().instance(robot);
+  rbdgrad::cuda::CudaInstance* instance = backend().instance(robot);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
     return;
   }
   Batch<S> b(load(robot).nv, n, precision);
   // the first call sizes the device and pinned buffers: not part of the steady state
-  if (Status s = instance->compute(b.view); !s) {
+  if (Status s = instance->compute(&b.view); !s) {
     state.SkipWithError(s.to_string().c_str());
     return;
   }
+  double kernel_ms = 0;
   for (auto _ : state) {
-    if (Status s = instance->compute(b.view); !s) {
+    if (Status s = instance->compute(&b.view); !s) {
       state.SkipWithError(s.to_string().c_str());
       return;
     }
+    kernel_ms += instance->last_kernel_ms();
     benchmark::ClobberMemory();
   }
+  state.counters["kernel_us"] = 1e3 * kernel_ms / static_cast<double>(state.iterations());
   state.counters["states_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate);
 }

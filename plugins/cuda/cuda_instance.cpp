@@ -50,6 +50,8 @@ CudaInstance::CudaInstance(const Model& model, int device) : model_(model), devi
 CudaInstance::~CudaInstance() {
   // the allocations free themselves; they need this device current
   cudaSetDevice(device_);
+  if (kernel_start_) cudaEventDestroy(kernel_start_);
+  if (kernel_end_) cudaEventDestroy(kernel_end_);
   if (stream_) cudaStreamDestroy(stream_);
 }
 
@@ -81,6 +83,9 @@ Status CudaInstance::init() {
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
   if (Status s = cuda_status(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate"); !s)
     return s;
+  for (cudaEvent_t* e : {&kernel_start_, &kernel_end_}) {
+    if (Status s = cuda_status(cudaEventCreate(e), "cudaEventCreate"); !s) return s;
+  }
   // robot constants, once
   const FlatModel<double> flat(model_);
   if (Status s = d_ints_.reserve(flat.ints.size() * sizeof(int)); !s) return s;
@@ -159,15 +164,20 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
                              "copying the batch to the device");
       !s)
     return s;
+  if (Status s = cuda_status(cudaEventRecord(kernel_start_, stream_), "cudaEventRecord"); !s) return s;
   if (Status s = cuda_status(launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream_), "launching the fused kernel");
       !s)
     return s;
+  if (Status s = cuda_status(cudaEventRecord(kernel_end_, stream_), "cudaEventRecord"); !s) return s;
   if (Status s = cuda_status(
           cudaMemcpyAsync(h_out_.data(), d_out_.data(), out_layout.size(), cudaMemcpyDeviceToHost, stream_),
           "copying the results from the device");
       !s)
     return s;
   if (Status s = cuda_status(cudaStreamSynchronize(stream_), "running the fused kernel"); !s) return s;
+  if (Status s = cuda_status(cudaEventElapsedTime(&last_kernel_ms_, kernel_start_, kernel_end_), "cudaEventElapsedTime");
+      !s)
+    return s;
 
   // outputs out of the pinned block
   for (int f = 0; f < kOutputCount; ++f)

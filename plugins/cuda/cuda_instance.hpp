@@ -41,6 +41,9 @@ class CudaInstance {
 
   int device() const { return device_; }
   std::size_t slots() const { return slots_; }
+  /// The kernel's own time in the last successful compute(), from CUDA events around the launch
+  /// (resolution about 0.5 us): the benchmarks' kernel-only figure. 0 before the first.
+  float last_kernel_ms() const { return last_kernel_ms_; }
 
  private:
   explicit CudaInstance(const Model& model, int device);
@@ -52,6 +55,8 @@ class CudaInstance {
   Model model_;
   int device_;
   cudaStream_t stream_ = nullptr;
+  cudaEvent_t kernel_start_ = nullptr, kernel_end_ = nullptr;  // around the launch, on stream_
+  float last_kernel_ms_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64
   Allocation d_model_f32_{MemoryKind::kDevice};  // same in f32
