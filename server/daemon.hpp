@@ -63,8 +63,8 @@ class Daemon {
   /// after shutdown_grace is cancelled. Removes the daemon's socket file. Idempotent; not
   /// concurrent with start().
   /// With `for_exit` (the process ends next), gRPC's server object is left to the process's end
-  /// instead of destroyed: on many-core machines its destructor waited 10 s for an idle gRPC
-  /// executor thread after requests had finished on instance-pool threads.
+  /// instead of destroyed: on a 16-core machine its destructor waited 10 s after requests had
+  /// finished on instance-pool threads (a gRPC executor thread sat in epoll_wait meanwhile).
   void stop(bool for_exit = false);
 
   const ModelRegistry& models() const noexcept { return models_; }
