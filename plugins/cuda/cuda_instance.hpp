@@ -2,7 +2,9 @@
 // allocated once, a stream, and one pinned host block and one device block per direction that
 // grow by size class. compute() copies the inputs into the pinned block, then on the stream: one
 // copy in, one kernel launch for the whole batch, one copy out; then the outputs out of the
-// pinned block into the caller's arrays.
+// pinned block into the caller's arrays. Large batches go in chunks on two streams, so that the
+// copies of one chunk (host staging and PCIe) overlap the kernel of another; the kernels still run
+// one after the other, as they share the workspace.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -22,6 +24,15 @@ namespace rbdgrad::cuda {
 inline constexpr int kMaxNv = 64;
 // Device memory for the kernel's workspace; the number of thread slots follows from it.
 inline constexpr std::size_t kWorkspaceBudgetBytes = std::size_t{1} << 30;
+// A batch that one pass of the resident threads covers is pipelined in chunks of at least this
+// many states (at most kMaxChunks); see chunk_states.
+inline constexpr std::size_t kChunkStates = 8192;
+inline constexpr std::size_t kMaxChunks = 4;
+
+/// States per chunk of a batch of `n` states on an instance with `slots` resident thread slots:
+/// whole passes of the slots when the batch needs several, else n split in up to kMaxChunks
+/// chunks of at least kChunkStates. n >= 1, slots >= 1.
+std::size_t chunk_states(std::size_t n, std::size_t slots);
 
 class CudaInstance {
  public:
@@ -54,8 +65,10 @@ class CudaInstance {
 
   Model model_;
   int device_;
-  cudaStream_t stream_ = nullptr;
-  cudaEvent_t kernel_start_ = nullptr, kernel_end_ = nullptr;  // around the launch, on stream_
+  cudaStream_t streams_[2] = {};  // chunks alternate between them
+  cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch
+  cudaEvent_t kernel_end_[kMaxChunks] = {};  // after each chunk's launch: the next chunk's kernel waits for it
+  cudaEvent_t copied_[kMaxChunks] = {};      // after each chunk's outputs reached the pinned block
   float last_kernel_ms_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64

@@ -208,6 +208,19 @@ TEST(CudaLargeBatch, TalosReducedF64) {
   check_large_batch<double>("talos_reduced");
 }
 
+// A batch large enough to be pipelined in chunks (CudaInstance::kChunkStates), of a size that does
+// not split evenly, with every input array (external forces, a caller's M^-1) and every output.
+TEST(CudaLargeBatch, UnevenChunksWithEveryInputAndOutput) {
+  SKIP_WITHOUT_GPU();
+  const Model model = robot_model("iiwa14");
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance = create(api(), desc.desc(), {});
+  ASSERT_TRUE(instance);
+  const std::vector<StateInputs> states = random_inputs(model, 3 * 8192 + 5, 13);
+  run_and_compare<double>(instance.get(), model, states, kOutputCases[2], true,
+                          "iiwa14 f64 n=24581 " + std::string(kOutputCases[2].name));
+}
+
 // States the core refuses fail the same way, with the core's message, and the others compute.
 TEST(CudaPerState, FailuresMatchTheCore) {
   SKIP_WITHOUT_GPU();
