@@ -45,7 +45,8 @@ void* caller_output(const rbdgrad_batch& b, int index) {
 
 }  // namespace
 
-CudaInstance::CudaInstance(const Model& model, int device) : model_(model), device_(device) {}
+CudaInstance::CudaInstance(const Model& model, int device, std::size_t workspace_bytes)
+    : model_(model), device_(device), workspace_bytes_(workspace_bytes) {}
 
 CudaInstance::~CudaInstance() {
   // the allocations free themselves; they need this device current
@@ -59,12 +60,13 @@ CudaInstance::~CudaInstance() {
     if (s) cudaStreamDestroy(s);
 }
 
-Status CudaInstance::create(const Model& model, int device, std::unique_ptr<CudaInstance>& out) {
+Status CudaInstance::create(const Model& model, int device, std::unique_ptr<CudaInstance>& out,
+                            std::size_t workspace_bytes) {
   if (model.nv > kMaxNv)
     return unimplemented("model has " + std::to_string(model.nv) + " joints, more than the " + std::to_string(kMaxNv) +
                          " the cuda backend supports");
   if (Status s = check_device(device); !s) return s;
-  std::unique_ptr<CudaInstance> instance(new CudaInstance(model, device));
+  std::unique_ptr<CudaInstance> instance(new CudaInstance(model, device, workspace_bytes));
   if (Status s = instance->init(); !s) return s;
   out = std::move(instance);
   return Status::ok();
@@ -112,7 +114,7 @@ Status CudaInstance::init() {
   const std::size_t slot_bytes = WorkspaceView<double>::scalars(model_.nv) * sizeof(double);
   const std::size_t resident = static_cast<std::size_t>(prop.multiProcessorCount) * prop.maxThreadsPerMultiProcessor;
   const std::size_t block = kFusedThreadsPerBlock;
-  slots_ = std::min(resident, kWorkspaceBudgetBytes / slot_bytes) / block * block;
+  slots_ = std::min(resident, workspace_bytes_ / slot_bytes) / block * block;
   slots_ = std::max(slots_, block);
   // zero-filled: entries outside the tree's sparsity are never written, and must read as zero
   return d_scratch_.allocate_zeroed(slots_ * slot_bytes);

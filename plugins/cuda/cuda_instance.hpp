@@ -22,8 +22,9 @@ namespace rbdgrad::cuda {
 
 // Largest model the instance takes: bounds the workspace of one thread slot.
 inline constexpr int kMaxNv = 64;
-// Device memory for the kernel's workspace; the number of thread slots follows from it.
-inline constexpr std::size_t kWorkspaceBudgetBytes = std::size_t{1} << 30;
+// Default device memory for the kernel's workspace (the plugin's option workspace_mib); the number
+// of thread slots follows from it, up to what the GPU can hold resident.
+inline constexpr std::size_t kDefaultWorkspaceBytes = std::size_t{1} << 30;
 // A batch that one pass of the resident threads covers is pipelined in chunks of at least this
 // many states (at most kMaxChunks); see chunk_states.
 inline constexpr std::size_t kChunkStates = 8192;
@@ -40,7 +41,10 @@ class CudaInstance {
   /// \param[in] device the CUDA device index.
   /// \param[out] out set on success. Errors: unavailable (no driver or GPU, no such device, out of
   ///             device memory), unimplemented (model too large).
-  static Status create(const Model& model, int device, std::unique_ptr<CudaInstance>& out);
+  /// \param[in] workspace_bytes device memory for the kernel's workspace (at least one block of
+  ///             thread slots is always allocated).
+  static Status create(const Model& model, int device, std::unique_ptr<CudaInstance>& out,
+                       std::size_t workspace_bytes = kDefaultWorkspaceBytes);
   ~CudaInstance();
   CudaInstance(const CudaInstance&) = delete;
   CudaInstance& operator=(const CudaInstance&) = delete;
@@ -57,7 +61,7 @@ class CudaInstance {
   float last_kernel_ms() const { return last_kernel_ms_; }
 
  private:
-  explicit CudaInstance(const Model& model, int device);
+  CudaInstance(const Model& model, int device, std::size_t workspace_bytes);
   Status init();
   template <class S> Status upload_model(Allocation& block, ModelView<S>& view);
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
@@ -65,6 +69,7 @@ class CudaInstance {
 
   Model model_;
   int device_;
+  std::size_t workspace_bytes_;
   cudaStream_t streams_[2] = {};  // chunks alternate between them
   cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch
   cudaEvent_t kernel_end_[kMaxChunks] = {};  // after each chunk's launch: the next chunk's kernel waits for it

@@ -29,6 +29,8 @@ constexpr std::uint32_t kMinHostMinor = 0;
 constexpr std::uint32_t kPrecisions = RBDGRAD_PRECISION_F64 | RBDGRAD_PRECISION_F32;
 // more devices than this is a typo, not a machine
 constexpr std::uint64_t kMaxDevice = 1023;
+// 1 TiB of workspace is a typo, not a GPU
+constexpr std::uint64_t kMaxWorkspaceMib = std::uint64_t{1} << 20;
 
 rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
   return guarded([&]() -> Status {
@@ -69,14 +71,20 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (instance == nullptr) return invalid_argument("instance is NULL");
     *instance = nullptr;
     if (desc == nullptr) return invalid_argument("model is NULL");
-    // device: the CUDA device index; each visible GPU is its own instance
-    if (Status s = check_options(options, {"device"}); !s) return s;
+    // device: the CUDA device index; each visible GPU is its own instance.
+    // workspace_mib: device memory for the kernel's per-thread workspace (default 1024).
+    if (Status s = check_options(options, {"device", "workspace_mib"}); !s) return s;
     std::uint64_t device = 0;
     if (Status s = option_uint(options, "device", 0, kMaxDevice, device); !s) return s;
+    std::uint64_t workspace_mib = cuda::kDefaultWorkspaceBytes >> 20;
+    if (Status s = option_uint(options, "workspace_mib", 1, kMaxWorkspaceMib, workspace_mib); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
-    if (Status s = cuda::CudaInstance::create(model, static_cast<int>(device), made->gpu); !s) return s;
+    if (Status s = cuda::CudaInstance::create(model, static_cast<int>(device), made->gpu,
+                                              static_cast<std::size_t>(workspace_mib) << 20);
+        !s)
+      return s;
     *instance = made.release();
     return Status::ok();
   });

@@ -91,7 +91,15 @@ TEST(CudaPlugin, OptionsAreChecked) {
   create(api(), iiwa().desc(), {{"device", "first"}}, &e);
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  for (const char* bad : {"0", "-1", "lots", "1048577"}) {
+    create(api(), iiwa().desc(), {{"workspace_mib", bad}}, &e);
+    ASSERT_TRUE(e) << bad;
+    EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << bad << ": " << e->message;
+    EXPECT_NE(e->message.find("option 'workspace_mib'"), std::string::npos) << e->message;
+  }
   SKIP_WITHOUT_GPU();
+  // a small workspace still computes, with fewer resident thread slots
+  EXPECT_NE(create(api(), iiwa().desc(), {{"workspace_mib", "1"}}, &e), nullptr) << (e ? e->message : "");
   create(api(), iiwa().desc(), {{"device", "1000"}}, &e);
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_UNAVAILABLE) << e->message;
@@ -219,6 +227,21 @@ TEST(CudaLargeBatch, UnevenChunksWithEveryInputAndOutput) {
   const std::vector<StateInputs> states = random_inputs(model, 3 * 8192 + 5, 13);
   run_and_compare<double>(instance.get(), model, states, kOutputCases[2], true,
                           "iiwa14 f64 n=24581 " + std::string(kOutputCases[2].name));
+}
+
+// A small workspace: few resident thread slots, so each thread runs many states and a large batch
+// goes in chunks of whole passes (chunk_states).
+TEST(CudaLargeBatch, SmallWorkspaceManyPassesPerThread) {
+  SKIP_WITHOUT_GPU();
+  const Model model = robot_model("iiwa14");
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance = create(api(), desc.desc(), {{"workspace_mib", "1"}});
+  ASSERT_TRUE(instance);
+  for (const std::size_t n : {1000u, 20000u}) {
+    const std::vector<StateInputs> states = random_inputs(model, n, 17);
+    run_and_compare<double>(instance.get(), model, states, kOutputCases[2], true,
+                            "iiwa14 f64 workspace 1 MiB n=" + std::to_string(n));
+  }
 }
 
 // States the core refuses fail the same way, with the core's message, and the others compute.
