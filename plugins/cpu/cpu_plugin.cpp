@@ -1,12 +1,12 @@
 // The CPU backend's plugin table: the core library on a pool of worker threads, in f64, f32 and
 // Q16.16 fixed point (a bit-exact software model of the FPGA kernels' arithmetic).
 #include <chrono>
-#include <cstdio>
 #include <memory>
 #include <thread>
 
 #include "common/batch_view.hpp"
 #include "common/error.hpp"
+#include "common/host_api.hpp"
 #include "common/model_desc.hpp"
 #include "common/options.hpp"
 #include "cpu_instance.hpp"
@@ -120,12 +120,7 @@ constexpr rbdgrad_plugin_api kApi = {
 // The one exported symbol (exports.map hides everything else).
 extern "C" __attribute__((visibility("default"))) const rbdgrad_plugin_api* rbdgrad_plugin_entry(
     std::uint32_t host_api_major, std::uint32_t host_api_minor) {
-  using rbdgrad::plugin::kMinHostMinor;
-  if (host_api_major != RBDGRAD_PLUGIN_API_MAJOR || host_api_minor < kMinHostMinor) {
-    // the ABI gives the plugin no other channel to say why
-    std::fprintf(stderr, "rbdgrad cpu plugin: host plugin API %u.%u is not compatible with %d.%d (needs major %d, minor >= %u)\n",
-                 host_api_major, host_api_minor, RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR,
-                 RBDGRAD_PLUGIN_API_MAJOR, kMinHostMinor);
+  if (!rbdgrad::plugin::host_api_compatible("cpu", host_api_major, host_api_minor, rbdgrad::plugin::kMinHostMinor)) {
     return nullptr;
   }
   return &rbdgrad::plugin::kApi;

@@ -1,11 +1,11 @@
 // The CUDA backend's plugin table: the completely fused kernel (one launch per batch) on one GPU
 // per instance, in f64 and f32. Without a driver or GPU the library still loads, and every
 // instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
-#include <cstdio>
 #include <memory>
 
 #include "common/batch_view.hpp"
 #include "common/error.hpp"
+#include "common/host_api.hpp"
 #include "common/model_desc.hpp"
 #include "common/options.hpp"
 #include "cuda_device.hpp"
@@ -121,12 +121,7 @@ constexpr rbdgrad_plugin_api kApi = {
 // The one exported symbol (exports.map hides everything else).
 extern "C" __attribute__((visibility("default"))) const rbdgrad_plugin_api* rbdgrad_plugin_entry(
     std::uint32_t host_api_major, std::uint32_t host_api_minor) {
-  using rbdgrad::plugin::kMinHostMinor;
-  if (host_api_major != RBDGRAD_PLUGIN_API_MAJOR || host_api_minor < kMinHostMinor) {
-    // the ABI gives the plugin no other channel to say why
-    std::fprintf(stderr, "rbdgrad cuda plugin: host plugin API %u.%u is not compatible with %d.%d (needs major %d, minor >= %u)\n",
-                 host_api_major, host_api_minor, RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR,
-                 RBDGRAD_PLUGIN_API_MAJOR, kMinHostMinor);
+  if (!rbdgrad::plugin::host_api_compatible("cuda", host_api_major, host_api_minor, rbdgrad::plugin::kMinHostMinor)) {
     return nullptr;
   }
   return &rbdgrad::plugin::kApi;
