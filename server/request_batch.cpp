@@ -144,20 +144,6 @@ Status convert_field(const std::string& pre, const InputField& f, uint64_t n, in
   return Status::ok();
 }
 
-v1::Tensor* response_tensor(v1::ComputeResponse& r, v1::Output o) {
-  switch (o) {
-    case v1::OUTPUT_QDD: return r.mutable_qdd();
-    case v1::OUTPUT_MINV: return r.mutable_minv();
-    case v1::OUTPUT_DQDD_DQ: return r.mutable_dqdd_dq();
-    case v1::OUTPUT_DQDD_DQD: return r.mutable_dqdd_dqd();
-    case v1::OUTPUT_TAU: return r.mutable_tau();
-    case v1::OUTPUT_DTAU_DQ: return r.mutable_dtau_dq();
-    case v1::OUTPUT_DTAU_DQD: return r.mutable_dtau_dqd();
-    case v1::OUTPUT_M: return r.mutable_m();
-    default: return nullptr;
-  }
-}
-
 v1::Precision proto_precision(uint32_t p) {
   switch (p) {
     case RBDGRAD_PRECISION_F64: return v1::PRECISION_F64;
@@ -172,6 +158,26 @@ uint32_t output_flag(v1::Output output) noexcept {
   for (const OutputSpec& s : kOutputs)
     if (s.output == output) return s.flag;
   return 0;
+}
+
+bool is_matrix_output(v1::Output output) noexcept {
+  for (const OutputSpec& s : kOutputs)
+    if (s.output == output) return s.matrix;
+  return false;
+}
+
+v1::Tensor* response_tensor(v1::ComputeResponse& r, v1::Output o) {
+  switch (o) {
+    case v1::OUTPUT_QDD: return r.mutable_qdd();
+    case v1::OUTPUT_MINV: return r.mutable_minv();
+    case v1::OUTPUT_DQDD_DQ: return r.mutable_dqdd_dq();
+    case v1::OUTPUT_DQDD_DQD: return r.mutable_dqdd_dqd();
+    case v1::OUTPUT_TAU: return r.mutable_tau();
+    case v1::OUTPUT_DTAU_DQ: return r.mutable_dtau_dq();
+    case v1::OUTPUT_DTAU_DQD: return r.mutable_dtau_dqd();
+    case v1::OUTPUT_M: return r.mutable_m();
+    default: return nullptr;
+  }
 }
 
 Status RequestBatch::from_request(const v1::ComputeRequest& req, int nv, rbdgrad_precision precision,

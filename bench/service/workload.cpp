@@ -5,6 +5,8 @@
 #include <numbers>
 #include <string>
 
+#include "request_batch.hpp"
+
 namespace rbdgrad::bench {
 namespace {
 
@@ -12,22 +14,6 @@ void set_tensor(v1::Tensor& t, const double* values, std::size_t count) {
   t.set_type(v1::SCALAR_TYPE_F64);
   // the host is little-endian (as the wire format), so the doubles' bytes go as they are
   t.set_data(reinterpret_cast<const char*>(values), count * sizeof(double));
-}
-
-bool is_matrix(v1::Output o) { return o != v1::OUTPUT_QDD && o != v1::OUTPUT_TAU; }
-
-v1::Tensor* response_tensor(v1::ComputeResponse& r, v1::Output o) {
-  switch (o) {
-    case v1::OUTPUT_QDD: return r.mutable_qdd();
-    case v1::OUTPUT_MINV: return r.mutable_minv();
-    case v1::OUTPUT_DQDD_DQ: return r.mutable_dqdd_dq();
-    case v1::OUTPUT_DQDD_DQD: return r.mutable_dqdd_dqd();
-    case v1::OUTPUT_TAU: return r.mutable_tau();
-    case v1::OUTPUT_DTAU_DQ: return r.mutable_dtau_dq();
-    case v1::OUTPUT_DTAU_DQD: return r.mutable_dtau_dqd();
-    case v1::OUTPUT_M: return r.mutable_m();
-    default: return nullptr;
-  }
 }
 
 // the value in [target - 24, target] (or 0..target) whose `size_of` is closest to target, preferring exact
@@ -91,10 +77,10 @@ std::size_t expected_response_bytes(const v1::ComputeRequest& request, int nv) {
   const std::size_t per_vector = static_cast<std::size_t>(request.num_states()) * nv;
   for (int o : request.outputs()) {
     const auto output = static_cast<v1::Output>(o);
-    v1::Tensor* t = response_tensor(resp, output);
+    v1::Tensor* t = server::response_tensor(resp, output);
     if (!t) continue;
     t->set_type(v1::SCALAR_TYPE_F64);
-    t->mutable_data()->resize((is_matrix(output) ? per_vector * nv : per_vector) * sizeof(double));
+    t->mutable_data()->resize((server::is_matrix_output(output) ? per_vector * nv : per_vector) * sizeof(double));
   }
   resp.set_backend(v1::BACKEND_CPU);
   resp.set_precision(request.precision() == v1::PRECISION_AUTO ? v1::PRECISION_F64 : request.precision());
