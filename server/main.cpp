@@ -1,7 +1,6 @@
 // rbdgradd, the rbdgrad daemon: serves the Dynamics gRPC service (server/daemon.hpp) until
 // SIGINT/SIGTERM, then stops gracefully. Configuration: built-in defaults, then the YAML file of
 // --config (configs/default.yaml documents every field), then the flags.
-#include <pthread.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -22,6 +21,7 @@
 #include "daemon.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "ready_file.hpp"
+#include "stop_signals.hpp"
 
 #ifndef RBDGRAD_PLUGIN_INSTALL_DIR_REL
 #error "RBDGRAD_PLUGIN_INSTALL_DIR_REL must name the installed plugins' folder relative to the installed binary"
@@ -56,23 +56,6 @@ void print_help(std::ostream& os) {
      << "The rbdgrad daemon: serves batched rigid-body dynamics and gradients over gRPC until\n"
      << "SIGINT/SIGTERM. Flags override the configuration file.\n\noptions:\n"
      << rbdgrad::cli::format_options(kOptions);
-}
-
-// The stop signals are blocked from the start and taken with sigwait: no async-signal-safe handler
-// is needed, threads started later (gRPC's, the backends') inherit the mask, and a signal during
-// start-up is not lost (it is taken once the daemon serves, for a clean exit 0).
-sigset_t stop_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  return set;
-}
-
-int wait_for_stop_signal(const sigset_t& set) {
-  int signal = 0;
-  if (sigwait(&set, &signal) != 0) return -1;
-  return signal;
 }
 
 // A built-in backend's plugin ("cpu" -> librbdgrad_cpu.so): the installed layout (<prefix>/lib/rbdgrad
@@ -113,8 +96,8 @@ server::ModelConfig model_from_flag(const std::string& spec) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const sigset_t stop = stop_signals();
-  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+  // a signal during start-up is taken once the daemon serves, for a clean exit 0
+  const sigset_t stop = rbdgrad::cli::block_stop_signals();
   rbdgrad::cli::Args args;
   if (std::string error = rbdgrad::cli::Args::parse(kOptions, argc, argv, 1, args); !error.empty()) {
     std::cerr << "rbdgradd: " << error << "\n";
@@ -194,7 +177,7 @@ int main(int argc, char** argv) {
   spdlog::info("serving {} model(s) on {} backend(s); SIGINT or SIGTERM stops", daemon->models().size(),
                daemon->backends().ready_count());
 
-  const int signal = wait_for_stop_signal(stop);
+  const int signal = rbdgrad::cli::wait_for_stop_signal(stop);
   spdlog::info("shutting down (signal {}): finishing the requests in flight",
                signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "?");
   daemon->stop(/*for_exit=*/true);

@@ -1,22 +1,21 @@
 // echo_server: the transport floor of the service benchmark. Serves the Echo service of echo.proto
 // on TCP and/or a Unix socket until SIGINT/SIGTERM, and announces its bound addresses through a
 // ready file the same way rbdgradd does (lines "tcp 127.0.0.1:41234" / "unix /path").
-#include <pthread.h>
 
 #include <climits>
 #include <csignal>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
-#include <system_error>
+#include <vector>
 
 #include <grpcpp/grpcpp.h>
 
 #include "args.hpp"
 #include "echo_service.hpp"
+#include "ready_file.hpp"
+#include "stop_signals.hpp"
 
 namespace {
 
@@ -34,33 +33,11 @@ void print_help(std::ostream& os) {
      << rbdgrad::cli::format_options(kOptions);
 }
 
-// writes `text` to `path` through a temporary file and rename(), so a reader never sees half of it
-bool write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    if (!out.flush()) return false;
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  return !ec;
-}
-
-sigset_t stop_signals() {
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  return set;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  // blocked before gRPC starts its threads, so that only sigwait below takes them
-  const sigset_t stop = stop_signals();
-  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+  // blocked before gRPC starts its threads, so that only the wait below takes them
+  const sigset_t stop = rbdgrad::cli::block_stop_signals();
 
   rbdgrad::cli::Args args;
   if (std::string error = rbdgrad::cli::Args::parse(kOptions, argc, argv, 1, args); !error.empty()) {
@@ -105,19 +82,22 @@ int main(int argc, char** argv) {
   }
 
   // "127.0.0.1:0" -> "127.0.0.1:41234"
-  std::string announce;
-  if (!tcp.empty()) announce += "tcp " + tcp.substr(0, tcp.rfind(':')) + ":" + std::to_string(tcp_port) + "\n";
-  if (!unix_path.empty()) announce += "unix " + unix_path + "\n";
-  std::cout << "echo_server (" << api << " API) serving:\n" << announce << std::flush;
+  std::vector<rbdgrad::server::ListenAddress> addresses;
+  if (!tcp.empty()) addresses.push_back({"tcp", tcp.substr(0, tcp.rfind(':')) + ":" + std::to_string(tcp_port)});
+  if (!unix_path.empty()) addresses.push_back({"unix", unix_path});
+  std::cout << "echo_server (" << api << " API) serving:\n";
+  for (const auto& a : addresses) std::cout << a.text() << "\n";
+  std::cout << std::flush;
   const std::string ready = args.value_or("ready-file", "");
-  if (!ready.empty() && !write_atomically(ready, announce)) {
-    std::cerr << "echo_server: cannot write ready file " << ready << "\n";
-    server->Shutdown();
-    return 1;
+  if (!ready.empty()) {
+    if (const rbdgrad::Status s = rbdgrad::server::write_ready_file(ready, addresses); !s) {
+      std::cerr << "echo_server: " << s.to_string() << "\n";
+      server->Shutdown();
+      return 1;
+    }
   }
 
-  int signal = 0;
-  sigwait(&stop, &signal);
+  const int signal = rbdgrad::cli::wait_for_stop_signal(stop);
   // open streams are cancelled after the grace period; a benchmark client has closed them by then
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   server->Wait();
