@@ -174,10 +174,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   std::size_t out_per_state[kOutputCount] = {};
   for (int f = 0; f < kOutputCount; ++f)
     out_per_state[f] = (plugin::kMatrixOutputs & (1u << f)) ? nv * nv : nv;
-  const auto* d_in = d_in_.as<unsigned char>();
   auto* h_in = h_in_.as<unsigned char>();
+  auto* d_in = d_in_.as<unsigned char>();
+  auto* h_out = h_out_.as<unsigned char>();
   auto* d_out = d_out_.as<unsigned char>();
-  const auto* h_out = h_out_.as<unsigned char>();
 
   const std::size_t chunk = chunk_states(n, slots_);
   const std::size_t chunks = (n + chunk - 1) / chunk;
@@ -202,7 +202,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       const std::size_t at = inputs[k].at + a * in_per_state[k] * sizeof(S), bytes = m * in_per_state[k] * sizeof(S);
       // the host's part, overlapping the device's work on the previous chunk
       std::memcpy(h_in + at, static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S), bytes);
-      if (Status s = cuda_status(cudaMemcpyAsync(d_in_.as<unsigned char>() + at, h_in + at, bytes,
+      if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, h_in + at, bytes,
                                                  cudaMemcpyHostToDevice, stream),
                                  "copying the batch to the device");
           !s)
@@ -227,7 +227,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       if (!is_status && !(b.outputs & (1u << f))) continue;
       const std::size_t at = is_status ? status_at + a * sizeof(std::uint32_t) : out_at[f] + a * out_per_state[f] * sizeof(S);
       const std::size_t bytes = is_status ? m * sizeof(std::uint32_t) : m * out_per_state[f] * sizeof(S);
-      if (Status s = cuda_status(cudaMemcpyAsync(h_out_.as<unsigned char>() + at, d_out + at, bytes,
+      if (Status s = cuda_status(cudaMemcpyAsync(h_out + at, d_out + at, bytes,
                                                  cudaMemcpyDeviceToHost, stream),
                                  "copying the results from the device");
           !s)
@@ -250,7 +250,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
                              "cudaEventElapsedTime");
       !s)
     return s;
-  const auto* status = reinterpret_cast<const std::uint32_t*>(h_out_.as<unsigned char>() + status_at);
+  const auto* status = reinterpret_cast<const std::uint32_t*>(h_out + status_at);
   std::size_t failures = 0, first = 0;
   for (std::size_t k = 0; k < n; ++k) {
     if (status[k] == 0) {
