@@ -12,6 +12,8 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "cuda_instance.hpp"
@@ -84,11 +86,31 @@ Backend& backend() {
   return b;
 }
 
+// A kernel choice: the one-thread kernel, or the block kernel in one shape.
+struct Kernel {
+  std::string name;
+  rbdgrad::cuda::KernelOptions options;
+};
+Kernel thread_kernel() {
+  Kernel k{"thread", {}};
+  k.options.block_max_states = 0;
+  return k;
+}
+Kernel block_kernel(int threads_per_state, int states_per_block) {
+  Kernel k{"block" + std::to_string(threads_per_state) + "x" + std::to_string(states_per_block), {}};
+  k.options.block_shape = {threads_per_state, states_per_block};
+  return k;
+}
+
 template <class S>
-void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision) {
+void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel) {
   rbdgrad::cuda::CudaInstance* instance = backend().instance(robot);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
+    return;
+  }
+  if (Status s = instance->set_kernel_options(kernel.options); !s) {
+    state.SkipWithError(s.to_string().c_str());
     return;
   }
   Batch<S> b(load(robot).nv, n, precision);
@@ -107,22 +129,40 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
     benchmark::ClobberMemory();
   }
   state.counters["kernel_us"] = 1e3 * kernel_ms / static_cast<double>(state.iterations());
+  state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
   state.counters["states_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate);
 }
 
+template <class S>
+void add(const std::string& family, const std::string& robot, std::size_t n, const Kernel& kernel) {
+  constexpr bool f32 = std::is_same_v<S, float>;
+  const std::string name = family + "/" + kernel.name + (f32 ? "/f32/" : "/f64/") + robot + "/N" + std::to_string(n);
+  benchmark::RegisterBenchmark(name.c_str(), cuda_e2e<S>, robot, n, f32 ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64,
+                               kernel)
+      ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
+}
+
+// cuda_e2e: the anchors' sizes with the default kernel choice (the block kernel's default shape)
+// and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to choose the
+// default by measurement.
 const bool registered = [] {
-  for (const char* robot : {"iiwa14", "talos_reduced"}) {
-    for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
-      const std::string suffix = std::string(robot) + "/N" + std::to_string(n);
-      benchmark::RegisterBenchmark(("cuda_e2e/f32/" + suffix).c_str(), cuda_e2e<float>, robot, n,
-                                   RBDGRAD_PRECISION_F32)
-          ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
-      benchmark::RegisterBenchmark(("cuda_e2e/f64/" + suffix).c_str(), cuda_e2e<double>, robot, n,
-                                   RBDGRAD_PRECISION_F64)
-          ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
-    }
-  }
+  const Kernel kernels[] = {block_kernel(rbdgrad::cuda::BlockShape{}.threads_per_state,
+                                         rbdgrad::cuda::BlockShape{}.states_per_block),
+                            thread_kernel()};
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (const Kernel& kernel : kernels)
+      for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
+        add<float>("cuda_e2e", robot, n, kernel);
+        add<double>("cuda_e2e", robot, n, kernel);
+      }
+  const std::pair<int, int> shapes[] = {{8, 4}, {16, 2}, {32, 1}, {32, 2}, {32, 4}, {64, 1}, {64, 2}, {128, 1}};
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (const auto& [tps, spb] : shapes)
+      for (std::size_t n : {16, 1024, 65536}) {
+        add<float>("cuda_shape", robot, n, block_kernel(tps, spb));
+        add<double>("cuda_shape", robot, n, block_kernel(tps, spb));
+      }
   return true;
 }();
 

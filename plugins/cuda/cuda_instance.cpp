@@ -116,6 +116,9 @@ Status CudaInstance::init() {
   const std::size_t block = kFusedThreadsPerBlock;
   slots_ = std::min(resident, workspace_bytes_ / slot_bytes) / block * block;
   slots_ = std::max(slots_, block);
+  max_shared_bytes_ = prop.sharedMemPerBlockOptin;
+  if (Status s = cuda_status(allow_block_shared_bytes<double>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
+  if (Status s = cuda_status(allow_block_shared_bytes<float>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
   // zero-filled: entries outside the tree's sparsity are never written, and must read as zero
   return d_scratch_.allocate_zeroed(slots_ * slot_bytes);
 }
@@ -131,6 +134,21 @@ std::size_t chunk_states(std::size_t n, std::size_t slots) {
   // (iiwa14, N = 65536 in 4 chunks: end to end 4.9 -> 3.2 ms in f32)
   const std::size_t chunks = std::clamp<std::size_t>(n / kChunkStates, 1, kMaxChunks);
   return (n + chunks - 1) / chunks;
+}
+
+Status CudaInstance::set_kernel_options(const KernelOptions& options) {
+  const BlockShape& b = options.block_shape;
+  if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
+    return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
+                            std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
+  kernel_ = options;
+  return Status::ok();
+}
+
+template <class S>
+bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const {
+  return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
+         block_shared_bytes<S>(model_.nv, batch.tau_input, kernel_.block_shape) <= max_shared_bytes_;
 }
 
 template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
@@ -189,6 +207,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     return s;
   };
 
+  bool block = false;
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     cudaStream_t stream = streams_[c % 2];
@@ -217,9 +236,12 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // kernels one after the other (they share the workspace); the first one starts the clock
     cudaError_t e = c == 0 ? cudaEventRecord(kernel_start_, stream) : cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
     if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
-    if (Status s = cuda_status(launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream), "launching the fused kernel");
-        !s)
-      return fail(s);
+    // the block kernel for the gradient requests it takes (the whole batch decides, so that every
+    // chunk runs the same kernel)
+    block = use_block_kernel(p, n);
+    const cudaError_t launched = block ? launch_block_fused<S>(view<S>(), p, kernel_.block_shape, stream)
+                                       : launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream);
+    if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
 
     for (int f = 0; f <= kOutputCount; ++f) {
@@ -250,6 +272,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
                              "cudaEventElapsedTime");
       !s)
     return s;
+  last_block_ = block;
   const auto* status = reinterpret_cast<const std::uint32_t*>(h_out + status_at);
   std::size_t failures = 0, first = 0;
   for (std::size_t k = 0; k < n; ++k) {

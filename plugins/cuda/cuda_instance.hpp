@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <memory>
 
+#include "block_launch.hpp"
 #include "device/fused_state.hpp"
 #include "device_memory.hpp"
 #include "rbdgrad/model.hpp"
@@ -29,6 +30,15 @@ inline constexpr std::size_t kDefaultWorkspaceBytes = std::size_t{1} << 30;
 // many states (at most kMaxChunks); see chunk_states.
 inline constexpr std::size_t kChunkStates = 8192;
 inline constexpr std::size_t kMaxChunks = 4;
+// The block kernel computes gradient requests of up to this many states (the plugin's option
+// block_max_states); larger ones, and every other request, go to the one-thread kernel.
+inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
+
+/// Which kernel computes a batch, and the block kernel's shape (plugin options of the same names).
+struct KernelOptions {
+  std::size_t block_max_states = kDefaultBlockMaxStates;
+  BlockShape block_shape;
+};
 
 /// States per chunk of a batch of `n` states on an instance with `slots` resident thread slots:
 /// whole passes of the slots when the batch needs several, else n split in up to kMaxChunks
@@ -54,6 +64,13 @@ class CudaInstance {
   /// "state 3: fd_derivatives: result is not finite (NaN or Inf)". Not reentrant.
   Status compute(const rbdgrad_batch* batch);
 
+  /// Kernel choice and shape for the next compute() calls. Errors: invalid_argument (a block of
+  /// more than 1024 threads, or none).
+  Status set_kernel_options(const KernelOptions& options);
+  const KernelOptions& kernel_options() const { return kernel_; }
+  /// Whether the last successful compute() ran the block kernel.
+  bool last_used_block_kernel() const { return last_block_; }
+
   int device() const { return device_; }
   std::size_t slots() const { return slots_; }
   /// The kernel's own time in the last successful compute(), from CUDA events around the launch
@@ -65,6 +82,7 @@ class CudaInstance {
   Status init();
   template <class S> Status upload_model(Allocation& block, ModelView<S>& view);
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
+  template <class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
   template <class S> const ModelView<S>& view() const;
 
   Model model_;
@@ -75,6 +93,9 @@ class CudaInstance {
   cudaEvent_t kernel_end_[kMaxChunks] = {};  // after each chunk's launch: the next chunk's kernel waits for it
   cudaEvent_t copied_[kMaxChunks] = {};      // after each chunk's outputs reached the pinned block
   float last_kernel_ms_ = 0;
+  KernelOptions kernel_;
+  std::size_t max_shared_bytes_ = 0;  // per block, the device's opt-in limit
+  bool last_block_ = false;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64
   Allocation d_model_f32_{MemoryKind::kDevice};  // same in f32

@@ -72,12 +72,25 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     *instance = nullptr;
     if (desc == nullptr) return invalid_argument("model is NULL");
     // device: the CUDA device index; each visible GPU is its own instance.
-    // workspace_mib: device memory for the kernel's per-thread workspace (default 1024).
-    if (Status s = check_options(options, {"device", "workspace_mib"}); !s) return s;
+    // workspace_mib: device memory for the one-thread kernel's workspace (default 1024).
+    // block_max_states: the block kernel takes gradient requests of up to this many states (0:
+    // never); threads_per_state, states_per_block: its block shape.
+    if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
+                                           "states_per_block"});
+        !s)
+      return s;
     std::uint64_t device = 0;
     if (Status s = option_uint(options, "device", 0, kMaxDevice, device); !s) return s;
     std::uint64_t workspace_mib = cuda::kDefaultWorkspaceBytes >> 20;
     if (Status s = option_uint(options, "workspace_mib", 1, kMaxWorkspaceMib, workspace_mib); !s) return s;
+    cuda::KernelOptions kernel;
+    std::uint64_t block_max = kernel.block_max_states, tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state),
+                  spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block);
+    if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
+    if (Status s = option_uint(options, "threads_per_state", 1, 1024, tps); !s) return s;
+    if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;
+    kernel.block_max_states = static_cast<std::size_t>(block_max);
+    kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
@@ -85,6 +98,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
                                               static_cast<std::size_t>(workspace_mib) << 20);
         !s)
       return s;
+    if (Status s = made->gpu->set_kernel_options(kernel); !s) return s;
     *instance = made.release();
     return Status::ok();
   });

@@ -21,6 +21,17 @@ struct FlatModel {
       ints[n + i] = model.subtree_end[i];
       ints[2 * n + i] = model.type[i] == JointType::kPrismatic ? 1 : 0;
     }
+    // level_joints and level_start (ModelView): a counting sort of the joints by depth
+    levels = model.max_depth();
+    int* level_joints = ints.data() + 3 * n;
+    int* level_start = ints.data() + 4 * n;
+    int at = 0;
+    for (int level = 0; level < levels; ++level) {
+      level_start[level] = at;
+      for (std::size_t i = 0; i < n; ++i)
+        if (model.depth[i] == level + 1) level_joints[at++] = static_cast<int>(i);
+    }
+    level_start[levels] = at;
     // the order of model_view(): row-major 3x3 matrices, 3-vectors, scalars
     auto matrices = [&](const std::vector<Eigen::Matrix3d>& m) {
       for (const Eigen::Matrix3d& x : m)
@@ -42,11 +53,12 @@ struct FlatModel {
 
   /// A view onto blocks laid out like these, e.g. their device copies.
   ModelView<S> view(const S* scalar_block, const int* int_block) const {
-    return model_view(nv, scalar_block, int_block, gravity);
+    return model_view(nv, levels, scalar_block, int_block, gravity);
   }
   ModelView<S> host_view() const { return view(scalars.data(), ints.data()); }
 
   int nv;
+  int levels;              // the tree's depth
   std::vector<S> scalars;  // (ModelLayout::scalars(nv))
   std::vector<int> ints;   // (ModelLayout::ints(nv))
   S gravity[3];

@@ -13,6 +13,12 @@ struct ModelView {
   const int* parent = nullptr;        // (nv) parent joint, -1 for the world; parent[i] < i
   const int* subtree_end = nullptr;   // (nv) one past the last joint of joint i's subtree
   const int* prismatic = nullptr;     // (nv) 1 prismatic along z, 0 revolute about z
+  // the joints level by level from the roots (depth 1), in index order within a level:
+  // level L is level_joints[level_start[L] .. level_start[L + 1]); the block kernel's passes that
+  // are serial over the tree (articulated-body) go a level at a time
+  const int* level_joints = nullptr;  // (nv)
+  const int* level_start = nullptr;   // (levels + 1)
+  int levels = 0;                     // the tree's depth
   const S* joint_rotation = nullptr;  // (9 nv) joint frame in the parent body frame, row-major
   const S* joint_translation = nullptr;  // (3 nv)
   const S* mass = nullptr;            // (nv)
@@ -36,19 +42,23 @@ struct ModelView {
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;
-  static constexpr int kIntsPerJoint = 3;
+  static constexpr int kIntsPerJoint = 5;
   static int scalars(int nv) { return kScalarsPerJoint * nv; }
-  static int ints(int nv) { return kIntsPerJoint * nv; }
+  // level_start has at most nv + 1 entries
+  static int ints(int nv) { return kIntsPerJoint * nv + 1; }
 };
 
 // A view onto blocks laid out as ModelLayout says (host or device memory alike).
 template <class S>
-ModelView<S> model_view(int nv, const S* scalars, const int* ints, const S (&gravity)[3]) {
+ModelView<S> model_view(int nv, int levels, const S* scalars, const int* ints, const S (&gravity)[3]) {
   ModelView<S> m;
   m.nv = nv;
   m.parent = ints;
   m.subtree_end = ints + nv;
   m.prismatic = ints + 2 * nv;
+  m.level_joints = ints + 3 * nv;
+  m.level_start = ints + 4 * nv;
+  m.levels = levels;
   m.joint_rotation = scalars;
   m.joint_translation = m.joint_rotation + 9 * nv;
   m.mass = m.joint_translation + 3 * nv;

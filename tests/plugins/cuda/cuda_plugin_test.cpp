@@ -97,6 +97,13 @@ TEST(CudaPlugin, OptionsAreChecked) {
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << bad << ": " << e->message;
     EXPECT_NE(e->message.find("option 'workspace_mib'"), std::string::npos) << e->message;
   }
+  create(api(), iiwa().desc(), {{"threads_per_state", "0"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  create(api(), iiwa().desc(), {{"threads_per_state", "512"}, {"states_per_block", "4"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  EXPECT_NE(e->message.find("a block holds 1 to 1024 threads"), std::string::npos) << e->message;
   SKIP_WITHOUT_GPU();
   // a small workspace still computes, with fewer resident thread slots
   EXPECT_NE(create(api(), iiwa().desc(), {{"workspace_mib", "1"}}, &e), nullptr) << (e ? e->message : "");
@@ -145,19 +152,28 @@ void check_robot(const std::string& robot) {
   const Model model = robot_model(robot);
   const plugin::ModelDesc desc(model);
   std::optional<PluginError> error;
-  // one instance for every size and precision: its buffers grow and are reused
+  // one instance for every size and precision (its buffers grow and are reused), with the default
+  // kernel choice (the block kernel for gradient requests), and one with the one-thread kernel only
   InstancePtr instance = create(api(), desc.desc(), {{"device", "0"}}, &error);
+  ASSERT_FALSE(error) << error->message;
+  InstancePtr thread_only = create(api(), desc.desc(), {{"block_max_states", "0"}}, &error);
   ASSERT_FALSE(error) << error->message;
   const std::vector<StateInputs> all = random_inputs(model, kBatchSizes[4], 7);
   for (const std::size_t n : kBatchSizes) {
     const std::vector<StateInputs> states(all.begin(), all.begin() + static_cast<long>(n));
-    for (const bool tau_input : {true, false})
-      for (const OutputCase& c : kOutputCases) {
+    for (const bool tau_input : {true, false}) {
+      auto run = [&](rbdgrad_instance* on, const OutputCase& c, const char* kernel) {
         const std::string where = robot + " " + scalar_name<S>() + " n=" + std::to_string(n) + " " + c.name +
-                                  (tau_input ? ", tau input" : ", qdd input");
-        run_and_compare<S>(instance.get(), model, states, c, tau_input, where);
-        if (::testing::Test::HasFatalFailure()) return;
+                                  (tau_input ? ", tau input" : ", qdd input") + kernel;
+        run_and_compare<S>(on, model, states, c, tau_input, where);
+      };
+      for (const OutputCase& c : kOutputCases) run(instance.get(), c, "");
+      for (const OutputCase& c : kBlockCases) {
+        run(instance.get(), c, " (block kernel)");
+        run(thread_only.get(), c, " (one-thread kernel)");
       }
+      if (::testing::Test::HasFatalFailure()) return;
+    }
   }
 }
 
@@ -183,10 +199,38 @@ TEST(CudaSmallBatch, Iiwa14F64SevenStates) {
   InstancePtr instance = create(api(), iiwa().desc(), {});
   ASSERT_TRUE(instance);
   const std::vector<StateInputs> states = random_inputs(model, 7, 5);
-  for (const bool tau_input : {true, false})
+  for (const bool tau_input : {true, false}) {
     for (const OutputCase& c : kOutputCases)
       run_and_compare<double>(instance.get(), model, states, c, tau_input,
                               std::string("iiwa14 f64 n=7 ") + c.name + (tau_input ? ", tau input" : ", qdd input"));
+    for (const OutputCase& c : kBlockCases)
+      run_and_compare<float>(instance.get(), model, states, c, tau_input,
+                             std::string("iiwa14 f32 n=7 ") + c.name + (tau_input ? ", tau input" : ", qdd input"));
+  }
+}
+
+// The block kernel in other shapes: one warp per state, several states per warp or per block, and
+// groups that are not whole warps (block-wide syncs); odd batch sizes leave groups idle.
+TEST(CudaBlockShapes, EveryShapeMatchesTheCore) {
+  SKIP_WITHOUT_GPU();
+  const std::pair<const char*, const char*> shapes[] = {{"32", "1"}, {"8", "4"}, {"16", "2"}, {"96", "1"},
+                                                        {"128", "2"}, {"16", "3"}, {"256", "1"}};
+  for (const char* robot : {"iiwa14", "talos_reduced", "random_tree"}) {
+    const Model model = robot_model(robot);
+    const plugin::ModelDesc desc(model);
+    const std::vector<StateInputs> states = random_inputs(model, 33, 19);
+    for (const auto& [tps, spb] : shapes) {
+      std::optional<PluginError> error;
+      InstancePtr instance = create(api(), desc.desc(), {{"threads_per_state", tps}, {"states_per_block", spb}}, &error);
+      ASSERT_FALSE(error) << error->message;
+      for (const bool tau_input : {true, false}) {
+        const std::string where = std::string(robot) + " " + tps + " threads x " + spb + " states" +
+                                  (tau_input ? ", tau input" : ", qdd input");
+        run_and_compare<double>(instance.get(), model, states, kBlockCases[1], tau_input, where + " f64");
+        run_and_compare<float>(instance.get(), model, states, kBlockCases[1], tau_input, where + " f32");
+      }
+    }
+  }
 }
 
 // A large batch: more states than workspace slots for the larger robots, so threads loop.
@@ -198,9 +242,10 @@ void check_large_batch(const std::string& robot) {
   ASSERT_TRUE(instance);
   const std::vector<StateInputs> states = random_inputs(model, 65536, 11);
   for (const bool tau_input : {true, false})
-    run_and_compare<S>(instance.get(), model, states, kOutputCases[1], tau_input,
-                       robot + " " + scalar_name<S>() + " n=65536 " + kOutputCases[1].name +
-                           (tau_input ? ", tau input" : ", qdd input"));
+    for (const OutputCase* c : {&kOutputCases[1], &kBlockCases[1]})
+      run_and_compare<S>(instance.get(), model, states, *c, tau_input,
+                         robot + " " + scalar_name<S>() + " n=65536 " + c->name +
+                             (tau_input ? ", tau input" : ", qdd input"));
 }
 
 TEST(CudaLargeBatch, Iiwa14F64) {
@@ -255,7 +300,9 @@ TEST(CudaPerState, FailuresMatchTheCore) {
   std::vector<StateInputs> states = random_inputs(model, 7, 3);
   states[3].q(2) = std::numeric_limits<double>::quiet_NaN();
   states[5].qd(4) = std::numeric_limits<double>::infinity();
-  for (const OutputCase& c : kOutputCases) {
+  std::vector<OutputCase> cases(std::begin(kOutputCases), std::end(kOutputCases));
+  cases.insert(cases.end(), std::begin(kBlockCases), std::end(kBlockCases));
+  for (const OutputCase& c : cases) {
     CudaBatch<double> a(states, model.nv, true);
     a.poison();
     const rbdgrad_batch b = a.batch(RBDGRAD_PRECISION_F64, c, true);
@@ -304,12 +351,15 @@ void check_reference(const std::string& robot) {
   const OutputCase forward{"forward", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_M | RBDGRAD_OUTPUT_MINV |
                                           RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD, false, false};
   const OutputCase inverse{"inverse", RBDGRAD_OUTPUT_TAU | RBDGRAD_OUTPUT_DTAU_DQ | RBDGRAD_OUTPUT_DTAU_DQD, false, false};
+  // the gradient request without M: the block kernel's
+  const OutputCase gradient{"gradient", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV | kOutputDqdd, false, false};
   const std::pair<std::uint32_t, const char*> fields[] = {
       {RBDGRAD_OUTPUT_QDD, "qdd"},         {RBDGRAD_OUTPUT_M, "M"},          {RBDGRAD_OUTPUT_MINV, "Minv"},
       {RBDGRAD_OUTPUT_DQDD_DQ, "dqdd_dq"}, {RBDGRAD_OUTPUT_DQDD_DQD, "dqdd_dqd"}, {RBDGRAD_OUTPUT_TAU, "tau_id"},
       {RBDGRAD_OUTPUT_DTAU_DQ, "dtau_dq"}, {RBDGRAD_OUTPUT_DTAU_DQD, "dtau_dqd"}};
-  for (const bool tau_input : {true, false}) {
-    const OutputCase& c = tau_input ? forward : inverse;
+  for (const OutputCase* run : {&forward, &gradient, &inverse}) {
+    const OutputCase& c = *run;
+    const bool tau_input = run != &inverse;
     CudaBatch<S> a(tau_states, model.nv, tau_input);
     a.poison();
     const rbdgrad_batch b = a.batch(precision<S>(), c, tau_input);
@@ -326,16 +376,16 @@ void check_reference(const std::string& robot) {
         ASSERT_EQ(ref.size(), per) << field;
         Eigen::VectorXd got(static_cast<Eigen::Index>(per));
         for (std::size_t i = 0; i < per; ++i) got(static_cast<Eigen::Index>(i)) = a.out[f][k * per + i];
-        ASSERT_TRUE(got.allFinite()) << robot << " " << field << " state " << k;
+        ASSERT_TRUE(got.allFinite()) << robot << " " << field << " (" << c.name << ")" << " state " << k;
         errors.push_back(relative_error(got, Eigen::Map<const Eigen::VectorXd>(ref.data(), static_cast<Eigen::Index>(per))));
       }
       const double median = Comparison::median(errors), worst = Comparison::worst(errors);
-      std::printf("%s %s %s median %.1e worst %.1e\n", robot.c_str(), scalar_name<S>(), field, median, worst);
+      std::printf("%s %s %s (%s) median %.1e worst %.1e\n", robot.c_str(), scalar_name<S>(), field, c.name, median, worst);
       if constexpr (std::is_same_v<S, double>) {
-        EXPECT_LE(worst, 1e-10) << robot << " " << field;
+        EXPECT_LE(worst, 1e-10) << robot << " " << field << " (" << c.name << ")";
       } else {
-        EXPECT_LE(median, 1e-4) << robot << " " << field;
-        EXPECT_LE(worst, 1e-3) << robot << " " << field;
+        EXPECT_LE(median, 1e-4) << robot << " " << field << " (" << c.name << ")";
+        EXPECT_LE(worst, 1e-3) << robot << " " << field << " (" << c.name << ")";
       }
     }
   }

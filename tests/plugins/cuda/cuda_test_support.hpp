@@ -46,6 +46,17 @@ inline constexpr OutputCase kOutputCases[] = {
     {"M alone", RBDGRAD_OUTPUT_M, false, false},
 };
 
+// The gradient requests the block kernel takes (device/block_fused_state.hpp); the others go to
+// the one-thread kernel.
+inline constexpr std::uint32_t kOutputDqdd = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+inline constexpr OutputCase kBlockCases[] = {
+    {"d qdd", kOutputDqdd, false, false},
+    {"qdd, M^-1 and d qdd, external forces", kOutputDqdd | RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV, true, false},
+    {"d qdd/d q alone, external forces", RBDGRAD_OUTPUT_DQDD_DQ, true, false},
+    {"d qdd/d qd and qdd", RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD, false, false},
+    {"qdd and M^-1", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV, false, false},
+};
+
 // One state's inputs in double.
 struct StateInputs {
   Eigen::VectorXd q, qd, tau, qdd, fext;  // (nv), fext (6 nv)

@@ -1,0 +1,49 @@
+// The block kernel: a group of threads_per_state threads per state, states_per_block states per
+// block, each state's working set in the block's shared memory (device/block_fused_state.hpp).
+#include "block_launch.hpp"
+
+namespace rbdgrad::cuda {
+namespace {
+
+template <class S>
+__global__ void block_fused_kernel(ModelView<S> model, BatchPointers<S> batch) {
+  extern __shared__ __align__(16) unsigned char shared[];
+  const bool with_aba = block_uses_aba<S>(batch.tau_input);
+  S* base = reinterpret_cast<S*>(shared) + threadIdx.y * BlockWorkspace<S>::scalars(model.nv, with_aba);
+  const BlockWorkspace<S> w(base, model.nv, with_aba);
+  ThreadGroup g;
+  g.rank = static_cast<int>(threadIdx.x);
+  g.size = static_cast<int>(blockDim.x);
+  // groups that tile whole warps sync as warps (cheaper than the whole block)
+  g.warp_sync = blockDim.x <= 32 && 32 % blockDim.x == 0 && (blockDim.x * blockDim.y) % 32 == 0;
+  const std::uint64_t k = static_cast<std::uint64_t>(blockIdx.x) * blockDim.y + threadIdx.y;
+  const bool active = k < batch.n;
+  block_evaluate_state(model, w, batch, active ? k : batch.n - 1, active, g);
+}
+
+}  // namespace
+
+template <class S>
+cudaError_t allow_block_shared_bytes(std::size_t bytes) {
+  return cudaFuncSetAttribute(block_fused_kernel<S>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                              static_cast<int>(bytes));
+}
+
+template <class S>
+cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
+                               cudaStream_t stream) {
+  const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
+  const auto blocks = static_cast<unsigned>((batch.n + per_block - 1) / per_block);
+  const dim3 threads(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
+  block_fused_kernel<S><<<blocks, threads, block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream>>>(model, batch);
+  return cudaGetLastError();
+}
+
+template cudaError_t allow_block_shared_bytes<double>(std::size_t);
+template cudaError_t allow_block_shared_bytes<float>(std::size_t);
+template cudaError_t launch_block_fused<double>(const ModelView<double>&, const BatchPointers<double>&,
+                                                const BlockShape&, cudaStream_t);
+template cudaError_t launch_block_fused<float>(const ModelView<float>&, const BatchPointers<float>&, const BlockShape&,
+                                               cudaStream_t);
+
+}  // namespace rbdgrad::cuda

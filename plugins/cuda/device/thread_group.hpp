@@ -1,0 +1,43 @@
+// The threads that share one state in the block kernel (Algorithm 4 of paper 000): `size` threads
+// of which this is `rank`. A pass over independent work items is for_each(); sync() separates
+// passes that read what an earlier one wrote. Compiled as plain C++ (the host tests), a group is
+// one thread: for_each runs the items in order and sync() does nothing, which computes the same
+// values, since no item of a pass reads what another item of the same pass writes.
+#pragma once
+
+#include "spatial.hpp"
+
+namespace rbdgrad::cuda {
+
+struct ThreadGroup {
+  int rank = 0;
+  int size = 1;
+  // the group's threads sync through __syncwarp when the groups of the block tile warps (one
+  // warp per state or several states per warp), else through __syncthreads (every group of the
+  // block runs the same passes, so all reach each sync)
+  bool warp_sync = false;
+  // host tests only: run each pass's items in reverse order, which changes the results if an item
+  // reads what another item of the same pass writes
+  bool reverse = false;
+
+  RBDGRAD_HD void sync() const {
+#if defined(__CUDA_ARCH__)
+    if (warp_sync) __syncwarp();
+    else __syncthreads();
+#endif
+  }
+
+  // f(item) for item in [0, count), spread over the group's threads
+  template <class F>
+  RBDGRAD_HD void for_each(int count, F&& f) const {
+#if !defined(__CUDA_ARCH__)
+    if (reverse) {
+      for (int item = count - 1; item >= 0; --item) f(item);
+      return;
+    }
+#endif
+    for (int item = rank; item < count; item += size) f(item);
+  }
+};
+
+}  // namespace rbdgrad::cuda

@@ -1,0 +1,108 @@
+// Tests for plugins/cuda/device/block_fused_state.hpp (the block kernel's math: one state on a
+// group of threads) compiled as plain C++ and run on the CPU as a group of one thread: against
+// the core library for every embedded robot and a random tree with prismatic joints, f64 and f32,
+// both input kinds, every output case the block kernel takes. Each case also runs with the items
+// of every pass in reverse order: the results must not change, which shows that no item of a pass
+// depends on another (on the GPU, such a dependency would be a race).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "../../support/test_models.hpp"
+#include "../support/core_reference.hpp"
+#include "cuda_test_support.hpp"
+#include "device/block_fused_state.hpp"
+#include "flat_model.hpp"
+
+namespace rbdgrad::testing {
+namespace {
+
+constexpr std::size_t kStates = 40;
+
+template <class S>
+std::vector<std::uint32_t> run_block_on_host(const Model& model, CudaBatch<S>& a, const OutputCase& c, bool tau_input,
+                                             bool reverse) {
+  const cuda::FlatModel<S> flat(model);
+  const cuda::ModelView<S> m = flat.host_view();
+  const bool with_aba = cuda::block_uses_aba<S>(tau_input);
+  std::vector<S> shared(cuda::BlockWorkspace<S>::scalars(model.nv, with_aba), poison<S>());
+  const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
+  cuda::BatchPointers<S> b = a.pointers(c, tau_input);
+  std::vector<std::uint32_t> status(a.n, 0xffffffffu);
+  b.status = status.data();
+  cuda::ThreadGroup g;
+  g.reverse = reverse;
+  for (std::size_t k = 0; k < a.n; ++k) cuda::block_evaluate_state(m, w, b, k, true, g);
+  return status;
+}
+
+template <class S>
+void check_robot(const std::string& robot) {
+  const Model model = robot_model(robot);
+  const std::vector<StateInputs> states = random_inputs(model, kStates, 7);
+  for (const bool tau_input : {true, false}) {
+    for (const OutputCase& c : kBlockCases) {
+      CudaBatch<S> a(states, model.nv, tau_input);
+      ASSERT_TRUE(cuda::block_kernel_supports(a.pointers(c, tau_input))) << c.name;
+      const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
+      a.poison();
+      const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, tau_input, false);
+      for (std::size_t k = 0; k < kStates; ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
+      const Comparison cmp = compare_with_core(model, a, c, tau_input);
+      ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
+      EXPECT_TRUE(cmp.within_bounds<S>()) << where << ": " << cmp.summary();
+      if (&c == &kBlockCases[1]) std::printf("%s:%s\n", where.c_str(), cmp.summary().c_str());
+
+      CudaBatch<S> reversed(states, model.nv, tau_input);
+      reversed.poison();
+      run_block_on_host(model, reversed, c, tau_input, true);
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(a.out[f].data(), reversed.out[f].data(), a.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " changed with the items in reverse order";
+    }
+  }
+}
+
+TEST(BlockStateOnHost, TakesOnlyTheGradientRequests) {
+  const Model model = robot_model("iiwa14");
+  CudaBatch<double> a(random_inputs(model, 1, 5), model.nv, true);
+  const OutputCase supplied{"d qdd with supplied M^-1", kOutputDqdd, false, true};
+  const OutputCase tau{"tau and d qdd", kOutputDqdd | RBDGRAD_OUTPUT_TAU, false, false};
+  const OutputCase qdd{"qdd alone", RBDGRAD_OUTPUT_QDD, false, false};
+  for (const OutputCase& c : {supplied, tau, qdd}) EXPECT_FALSE(cuda::block_kernel_supports(a.pointers(c, true))) << c.name;
+}
+
+class BlockStateOnHost : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(BlockStateOnHost, F64MatchesCore) { check_robot<double>(GetParam()); }
+TEST_P(BlockStateOnHost, F32MatchesCore) { check_robot<float>(GetParam()); }
+
+INSTANTIATE_TEST_SUITE_P(Robots, BlockStateOnHost,
+                         ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq", "random_tree"),
+                         [](const auto& param_info) { return std::string(param_info.param); });
+
+// A mass matrix that is not positive definite fails the state with the core's reason and joint.
+TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
+  Model model = robot_model("iiwa14");
+  const int last = model.nv - 1;
+  model.mass[static_cast<std::size_t>(last)] = 0;
+  model.inertia_com[static_cast<std::size_t>(last)].setZero();
+  const std::vector<StateInputs> states = random_inputs(robot_model("iiwa14"), 2, 3);
+  CudaBatch<double> a(states, model.nv, true);
+  const OutputCase& c = kBlockCases[0];
+  const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, true, false);
+  const cuda::FlatModel<double> flat(model);
+  std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
+  const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);
+  const cuda::BatchPointers<double> b = a.pointers(c, true);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(cuda::status_reason(status[k]), cuda::Reason::kMassNotPositive) << "state " << k;
+    EXPECT_EQ(status[k], cuda::evaluate_state(flat.host_view(), ws, b, k)) << "state " << k << ": the one-thread kernel's status";
+  }
+}
+
+}  // namespace
+}  // namespace rbdgrad::testing

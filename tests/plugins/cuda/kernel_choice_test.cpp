@@ -1,0 +1,78 @@
+// Which kernel a CudaInstance runs (plugins/cuda/cuda_instance.cpp): the block kernel for the
+// gradient requests it takes, up to block_max_states states and within the device's shared
+// memory; the one-thread kernel for everything else. Needs a GPU (skips with the reason without).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "../../support/test_models.hpp"
+#include "cuda_instance.hpp"
+
+namespace rbdgrad::cuda {
+namespace {
+
+// One f64 batch from tau of n equal states, every output array allocated.
+struct OneBatch {
+  std::vector<double> q, qd, tau, qdd, minv, dq, dqd, M;
+  std::vector<std::int32_t> status;
+  rbdgrad_batch b{};
+  OneBatch(int nv, std::size_t n, std::uint32_t outputs)
+      : q(n * nv, 0.1), qd(n * nv, 0.2), tau(n * nv, 0.3), qdd(n * nv), minv(n * nv * nv), dq(n * nv * nv),
+        dqd(n * nv * nv), M(n * nv * nv), status(n) {
+    b.struct_size = sizeof(b);
+    b.n = n;
+    b.precision = RBDGRAD_PRECISION_F64;
+    b.input_kind = RBDGRAD_INPUT_TAU;
+    b.outputs = outputs;
+    b.q = q.data();
+    b.qd = qd.data();
+    b.u = tau.data();
+    b.qdd = qdd.data();
+    b.minv_out = minv.data();
+    b.dqdd_dq = dq.data();
+    b.dqdd_dqd = dqd.data();
+    b.m = M.data();
+    b.state_status = status.data();
+  }
+};
+
+TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::unique_ptr<CudaInstance> instance;
+  if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
+  OneBatch run(model.nv, 100, gradient);
+  ASSERT_TRUE(instance->compute(&run.b));
+  EXPECT_TRUE(instance->last_used_block_kernel());
+  OneBatch with_m(model.nv, 100, gradient | RBDGRAD_OUTPUT_M);
+  ASSERT_TRUE(instance->compute(&with_m.b));
+  EXPECT_FALSE(instance->last_used_block_kernel()) << "M is not a block-kernel output";
+  // the same numbers from both kernels (to rounding)
+  for (std::size_t e = 0; e < run.dq.size(); ++e) EXPECT_NEAR(run.dq[e], with_m.dq[e], 1e-9 * (1 + std::abs(run.dq[e])));
+
+  KernelOptions options;
+  options.block_max_states = 99;
+  ASSERT_TRUE(instance->set_kernel_options(options));
+  ASSERT_TRUE(instance->compute(&run.b));
+  EXPECT_FALSE(instance->last_used_block_kernel()) << "100 states, more than block_max_states";
+  options.block_shape = {1024, 2};
+  EXPECT_FALSE(instance->set_kernel_options(options));
+}
+
+TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
+  const Model model = testing::load_embedded("talos_reduced");
+  std::unique_ptr<CudaInstance> instance;
+  if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  KernelOptions options;
+  options.block_shape = {32, 32};  // 32 talos states of about 100 KB each: more than any GPU's block
+  ASSERT_TRUE(instance->set_kernel_options(options));
+  OneBatch run(model.nv, 40, RBDGRAD_OUTPUT_DQDD_DQ);
+  ASSERT_TRUE(instance->compute(&run.b));
+  EXPECT_FALSE(instance->last_used_block_kernel());
+  for (std::int32_t s : run.status) EXPECT_EQ(s, 0);
+}
+
+}  // namespace
+}  // namespace rbdgrad::cuda
