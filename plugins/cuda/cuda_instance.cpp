@@ -136,11 +136,16 @@ std::size_t chunk_states(std::size_t n, std::size_t slots) {
   return (n + chunks - 1) / chunks;
 }
 
-Status CudaInstance::set_kernel_options(const KernelOptions& options) {
+Status check_kernel_options(const KernelOptions& options) {
   const BlockShape& b = options.block_shape;
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
+  return Status::ok();
+}
+
+Status CudaInstance::set_kernel_options(const KernelOptions& options) {
+  if (Status s = check_kernel_options(options); !s) return s;
   kernel_ = options;
   return Status::ok();
 }

@@ -40,6 +40,9 @@ struct KernelOptions {
   BlockShape block_shape;
 };
 
+/// Errors: invalid_argument (a block of more than 1024 threads, or none).
+Status check_kernel_options(const KernelOptions& options);
+
 /// States per chunk of a batch of `n` states on an instance with `slots` resident thread slots:
 /// whole passes of the slots when the batch needs several, else n split in up to kMaxChunks
 /// chunks of at least kChunkStates. n >= 1, slots >= 1.
@@ -64,8 +67,7 @@ class CudaInstance {
   /// "state 3: fd_derivatives: result is not finite (NaN or Inf)". Not reentrant.
   Status compute(const rbdgrad_batch* batch);
 
-  /// Kernel choice and shape for the next compute() calls. Errors: invalid_argument (a block of
-  /// more than 1024 threads, or none).
+  /// Kernel choice and shape for the next compute() calls. Errors: check_kernel_options.
   Status set_kernel_options(const KernelOptions& options);
   const KernelOptions& kernel_options() const { return kernel_; }
   /// Whether the last successful compute() ran the block kernel.

@@ -91,6 +91,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;
     kernel.block_max_states = static_cast<std::size_t>(block_max);
     kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
+    if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
