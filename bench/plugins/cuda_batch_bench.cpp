@@ -96,6 +96,12 @@ Kernel thread_kernel() {
   k.options.block_max_states = 0;
   return k;
 }
+// the block kernel in its default shape and I/O, or with copies at every size
+Kernel block_kernel(bool mapped_io) {
+  Kernel k{mapped_io ? "block" : "block-copy", {}};
+  if (!mapped_io) k.options.mapped_io_max_states = 0;
+  return k;
+}
 Kernel block_kernel(int threads_per_state, int states_per_block) {
   Kernel k{"block" + std::to_string(threads_per_state) + "x" + std::to_string(states_per_block), {}};
   k.options.block_shape = {threads_per_state, states_per_block};
@@ -130,6 +136,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   }
   state.counters["kernel_us"] = 1e3 * kernel_ms / static_cast<double>(state.iterations());
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
+  state.counters["mapped_io"] = instance->last_used_mapped_io() ? 1 : 0;
   state.counters["states_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate);
 }
@@ -143,20 +150,20 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
       ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
 }
 
-// cuda_e2e: the anchors' sizes with the default kernel choice (the block kernel's default shape)
-// and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to choose the
-// default by measurement.
+// cuda_e2e: the anchors' sizes with the defaults (the block kernel, copies skipped for small
+// batches), with copies at every size, and with the one-thread kernel; cuda_shape: the block
+// kernel's shapes at a few sizes, to choose the default by measurement.
 const bool registered = [] {
-  const Kernel kernels[] = {block_kernel(rbdgrad::cuda::BlockShape{}.threads_per_state,
-                                         rbdgrad::cuda::BlockShape{}.states_per_block),
-                            thread_kernel()};
+  const Kernel kernels[] = {block_kernel(true), block_kernel(false), thread_kernel()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const Kernel& kernel : kernels)
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
+        // the one-thread kernel (the first increment) at three sizes, for comparison
+        if (kernel.name == "thread" && n != 16 && n != 1024 && n != 65536) continue;
         add<float>("cuda_e2e", robot, n, kernel);
         add<double>("cuda_e2e", robot, n, kernel);
       }
-  const std::pair<int, int> shapes[] = {{8, 4}, {16, 2}, {32, 1}, {32, 2}, {32, 4}, {64, 1}, {64, 2}, {128, 1}};
+  const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const auto& [tps, spb] : shapes)
       for (std::size_t n : {16, 1024, 65536}) {

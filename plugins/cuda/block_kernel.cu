@@ -6,11 +6,25 @@ namespace rbdgrad::cuda {
 namespace {
 
 template <class S>
-__global__ void block_fused_kernel(ModelView<S> model, BatchPointers<S> batch) {
+__global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<S> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
+  const int nv = global_model.nv;
+  // the robot's constants into shared memory first, by the whole block: the passes read them
+  // over and over, and a chain of global loads (parent of parent ...) would cost a round trip each
+  const int scalars = ModelLayout::scalars(nv), ints = ModelLayout::ints(nv);
+  S* model_scalars = reinterpret_cast<S*>(shared);
+  int* model_ints = reinterpret_cast<int*>(model_scalars + scalars);
+  const int threads = static_cast<int>(blockDim.x * blockDim.y);
+  const int tid = static_cast<int>(threadIdx.y * blockDim.x + threadIdx.x);
+  for (int e = tid; e < scalars; e += threads) model_scalars[e] = global_model.joint_rotation[e];
+  for (int e = tid; e < ints; e += threads) model_ints[e] = global_model.parent[e];
+  __syncthreads();
+  const ModelView<S> model = model_view(nv, global_model.levels, model_scalars, model_ints, global_model.gravity);
+
   const bool with_aba = block_uses_aba<S>(batch.tau_input);
-  S* base = reinterpret_cast<S*>(shared) + threadIdx.y * BlockWorkspace<S>::scalars(model.nv, with_aba);
-  const BlockWorkspace<S> w(base, model.nv, with_aba);
+  S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv)) +
+            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba);
+  const BlockWorkspace<S> w(base, nv, with_aba);
   ThreadGroup g;
   g.rank = static_cast<int>(threadIdx.x);
   g.size = static_cast<int>(blockDim.x);

@@ -12,16 +12,38 @@
 namespace rbdgrad::cuda {
 
 /// Threads per state and states per block: a block is threads_per_state x states_per_block.
+/// threads_per_state 0 chooses by the model's size (block_shape_for).
 struct BlockShape {
-  int threads_per_state = 64;
+  int threads_per_state = 0;
   int states_per_block = 1;
 };
 
-/// Shared memory of one block of `shape` for a model of nv joints, in bytes.
+/// The shape a launch uses: an automatic threads_per_state is 4 per joint, rounded up to a power
+/// of two, from 64 to 256 (measured on an H200, docs/benchmarks/cuda.md: 64 is the fastest for
+/// iiwa14, 128 and more for talos_reduced's 32 joints).
+inline BlockShape block_shape_for(const BlockShape& requested, int nv) {
+  BlockShape shape = requested;
+  if (shape.threads_per_state == 0) {
+    int t = 64;
+    while (t < 4 * nv && t < 256) t *= 2;
+    shape.threads_per_state = t;
+  }
+  return shape;
+}
+
+/// Bytes of the robot's constants at the start of a block's shared memory (16-byte aligned).
+template <class S>
+RBDGRAD_HD std::size_t block_model_bytes(int nv) {
+  const std::size_t bytes = ModelLayout::scalars(nv) * sizeof(S) + ModelLayout::ints(nv) * sizeof(int);
+  return (bytes + 15) / 16 * 16;
+}
+
+/// Shared memory of one block of `shape` (resolved) for a model of nv joints, in bytes: the
+/// robot's constants, then each state's working set.
 template <class S>
 std::size_t block_shared_bytes(int nv, bool tau_input, const BlockShape& shape) {
-  return BlockWorkspace<S>::scalars(nv, block_uses_aba<S>(tau_input)) * sizeof(S) *
-         static_cast<std::size_t>(shape.states_per_block);
+  return block_model_bytes<S>(nv) + BlockWorkspace<S>::scalars(nv, block_uses_aba<S>(tau_input)) * sizeof(S) *
+                                        static_cast<std::size_t>(shape.states_per_block);
 }
 
 /// Lets the kernel use up to `bytes` of shared memory per block (the device's opt-in limit);
@@ -30,7 +52,7 @@ template <class S>
 cudaError_t allow_block_shared_bytes(std::size_t bytes);
 
 /// Enqueues the kernel on `stream` for every state of `batch` (block_kernel_supports(batch), its
-/// shared memory within what allow_block_shared_bytes allowed).
+/// shared memory within what allow_block_shared_bytes allowed; `shape` resolved).
 /// \return the launch error, if any (execution errors show at the next synchronisation).
 template <class S>
 cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,

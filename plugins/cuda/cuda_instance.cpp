@@ -137,7 +137,8 @@ std::size_t chunk_states(std::size_t n, std::size_t slots) {
 }
 
 Status check_kernel_options(const KernelOptions& options) {
-  const BlockShape& b = options.block_shape;
+  // the largest automatic threads_per_state stands in for 0
+  const BlockShape b = block_shape_for(options.block_shape, kMaxNv);
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
@@ -153,7 +154,8 @@ Status CudaInstance::set_kernel_options(const KernelOptions& options) {
 template <class S>
 bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const {
   return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
-         block_shared_bytes<S>(model_.nv, batch.tau_input, kernel_.block_shape) <= max_shared_bytes_;
+         block_shared_bytes<S>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv)) <=
+             max_shared_bytes_;
 }
 
 template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
@@ -198,11 +200,13 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   for (int f = 0; f < kOutputCount; ++f)
     out_per_state[f] = (plugin::kMatrixOutputs & (1u << f)) ? nv * nv : nv;
   auto* h_in = h_in_.as<unsigned char>();
-  auto* d_in = d_in_.as<unsigned char>();
   auto* h_out = h_out_.as<unsigned char>();
-  auto* d_out = d_out_.as<unsigned char>();
+  // small batches: the kernel works on the pinned blocks themselves, no copies (one chunk)
+  const bool mapped = n <= kernel_.mapped_io_max_states;
+  auto* d_in = static_cast<unsigned char*>(mapped ? h_in_.device_address() : d_in_.data());
+  auto* d_out = static_cast<unsigned char*>(mapped ? h_out_.device_address() : d_out_.data());
 
-  const std::size_t chunk = chunk_states(n, slots_);
+  const std::size_t chunk = mapped ? n : chunk_states(n, slots_);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const auto chunk_begin = [&](std::size_t c) { return std::min(n, c * chunk); };
   // on an error, what is under way must finish before the buffers can be reused
@@ -213,6 +217,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   };
 
   bool block = false;
+  const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     cudaStream_t stream = streams_[c % 2];
@@ -226,30 +231,47 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       const std::size_t at = inputs[k].at + a * in_per_state[k] * sizeof(S), bytes = m * in_per_state[k] * sizeof(S);
       // the host's part, overlapping the device's work on the previous chunk
       std::memcpy(h_in + at, static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S), bytes);
-      if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, h_in + at, bytes,
-                                                 cudaMemcpyHostToDevice, stream),
+      // a batch in one chunk goes over in one copy, below
+      if (chunks > 1 && !mapped) {
+        if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, h_in + at, bytes, cudaMemcpyHostToDevice, stream),
+                                   "copying the batch to the device");
+            !s)
+          return fail(s);
+      }
+      *device_inputs[k] = reinterpret_cast<const S*>(d_in + at);
+    }
+    if (chunks == 1 && !mapped) {
+      if (Status s = cuda_status(cudaMemcpyAsync(d_in, h_in, in_layout.size(), cudaMemcpyHostToDevice, stream),
                                  "copying the batch to the device");
           !s)
         return fail(s);
-      *device_inputs[k] = reinterpret_cast<const S*>(d_in + at);
     }
     for (int f = 0; f < kOutputCount; ++f)
       if (b.outputs & (1u << f))
         p.out[f] = reinterpret_cast<S*>(d_out + out_at[f] + a * out_per_state[f] * sizeof(S));
     p.status = reinterpret_cast<std::uint32_t*>(d_out + status_at) + a;
 
-    // kernels one after the other (they share the workspace); the first one starts the clock
-    cudaError_t e = c == 0 ? cudaEventRecord(kernel_start_, stream) : cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
-    if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
     // the block kernel for the gradient requests it takes (the whole batch decides, so that every
     // chunk runs the same kernel)
     block = use_block_kernel(p, n);
-    const cudaError_t launched = block ? launch_block_fused<S>(view<S>(), p, kernel_.block_shape, stream)
+    // the first kernel starts the clock; the one-thread kernels run one after the other (they
+    // share the workspace), the block kernel's may overlap (shared memory only)
+    cudaError_t e = cudaSuccess;
+    if (c == 0) e = cudaEventRecord(kernel_start_, stream);
+    else if (!block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
+    if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
+    const cudaError_t launched = block ? launch_block_fused<S>(view<S>(), p, shape, stream)
                                        : launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
 
-    for (int f = 0; f <= kOutputCount; ++f) {
+    if (chunks == 1 && !mapped) {
+      if (Status s = cuda_status(cudaMemcpyAsync(h_out, d_out, out_layout.size(), cudaMemcpyDeviceToHost, stream),
+                                 "copying the results from the device");
+          !s)
+        return fail(s);
+    }
+    for (int f = 0; f <= kOutputCount && chunks > 1; ++f) {
       const bool is_status = f == kOutputCount;
       if (!is_status && !(b.outputs & (1u << f))) continue;
       const std::size_t at = is_status ? status_at + a * sizeof(std::uint32_t) : out_at[f] + a * out_per_state[f] * sizeof(S);
@@ -278,6 +300,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       !s)
     return s;
   last_block_ = block;
+  last_mapped_ = mapped;
   const auto* status = reinterpret_cast<const std::uint32_t*>(h_out + status_at);
   std::size_t failures = 0, first = 0;
   for (std::size_t k = 0; k < n; ++k) {

@@ -2,7 +2,8 @@
 // allocated once, a stream, and one pinned host block and one device block per direction that
 // grow by size class. compute() copies the inputs into the pinned block, then on the stream: one
 // copy in, one kernel launch for the whole batch, one copy out; then the outputs out of the
-// pinned block into the caller's arrays. Large batches go in chunks on two streams, so that the
+// pinned block into the caller's arrays. Small batches skip the two device copies: the kernel
+// reads and writes the pinned blocks directly (mapped memory). Large batches go in chunks on two streams, so that the
 // copies of one chunk (host staging and PCIe) overlap the kernel of another; the kernels still run
 // one after the other, as they share the workspace.
 #pragma once
@@ -23,6 +24,7 @@ namespace rbdgrad::cuda {
 
 // Largest model the instance takes: bounds the workspace of one thread slot.
 inline constexpr int kMaxNv = 64;
+static_assert(kMaxNv <= kMaxBlockNv, "the block kernel's index arithmetic must cover every model the instance takes");
 // Default device memory for the kernel's workspace (the plugin's option workspace_mib); the number
 // of thread slots follows from it, up to what the GPU can hold resident.
 inline constexpr std::size_t kDefaultWorkspaceBytes = std::size_t{1} << 30;
@@ -34,10 +36,17 @@ inline constexpr std::size_t kMaxChunks = 4;
 // block_max_states); larger ones, and every other request, go to the one-thread kernel.
 inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
 
-/// Which kernel computes a batch, and the block kernel's shape (plugin options of the same names).
+// Batches of up to this many states skip the copies: the kernel reads its inputs from the pinned
+// host block and writes its outputs into the other one, over PCIe (the plugin's option
+// mapped_io_max_states; measured in docs/benchmarks/cuda.md).
+inline constexpr std::size_t kDefaultMappedIoMaxStates = 256;
+
+/// Which kernel computes a batch, the block kernel's shape, and which batches skip the copies
+/// (plugin options of the same names).
 struct KernelOptions {
   std::size_t block_max_states = kDefaultBlockMaxStates;
   BlockShape block_shape;
+  std::size_t mapped_io_max_states = kDefaultMappedIoMaxStates;
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none).
@@ -70,8 +79,9 @@ class CudaInstance {
   /// Kernel choice and shape for the next compute() calls. Errors: check_kernel_options.
   Status set_kernel_options(const KernelOptions& options);
   const KernelOptions& kernel_options() const { return kernel_; }
-  /// Whether the last successful compute() ran the block kernel.
+  /// Whether the last successful compute() ran the block kernel, and whether it skipped the copies.
   bool last_used_block_kernel() const { return last_block_; }
+  bool last_used_mapped_io() const { return last_mapped_; }
 
   int device() const { return device_; }
   std::size_t slots() const { return slots_; }
@@ -98,6 +108,7 @@ class CudaInstance {
   KernelOptions kernel_;
   std::size_t max_shared_bytes_ = 0;  // per block, the device's opt-in limit
   bool last_block_ = false;
+  bool last_mapped_ = false;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64
   Allocation d_model_f32_{MemoryKind::kDevice};  // same in f32

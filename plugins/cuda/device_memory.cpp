@@ -24,13 +24,21 @@ Status Allocation::allocate_zeroed(std::size_t bytes) {
 
 Status Allocation::allocate(std::size_t bytes) {
   release();
-  const cudaError_t e = kind_ == MemoryKind::kDevice ? cudaMalloc(&data_, bytes) : cudaMallocHost(&data_, bytes);
+  const cudaError_t e =
+      kind_ == MemoryKind::kDevice ? cudaMalloc(&data_, bytes) : cudaHostAlloc(&data_, bytes, cudaHostAllocMapped);
   if (e != cudaSuccess) {
     data_ = nullptr;
-    return cuda_status(e, (kind_ == MemoryKind::kDevice ? "cudaMalloc of " : "cudaMallocHost of ") +
+    return cuda_status(e, (kind_ == MemoryKind::kDevice ? "cudaMalloc of " : "cudaHostAlloc of ") +
                               std::to_string(bytes) + " bytes");
   }
   capacity_ = bytes;
+  device_address_ = data_;
+  if (kind_ == MemoryKind::kPinnedHost) {
+    if (Status s = cuda_status(cudaHostGetDevicePointer(&device_address_, data_, 0), "cudaHostGetDevicePointer"); !s) {
+      release();
+      return s;
+    }
+  }
   return Status::ok();
 }
 
@@ -40,6 +48,7 @@ void Allocation::release() {
   if (kind_ == MemoryKind::kDevice) cudaFree(data_);
   else cudaFreeHost(data_);
   data_ = nullptr;
+  device_address_ = nullptr;
   capacity_ = 0;
 }
 

@@ -1,5 +1,6 @@
 // Owned CUDA allocations: device memory and pinned (page-locked) host memory, which asynchronous
-// copies need. Both grow by size class (powers of two), so that a stream of batches of similar
+// copies need and which is also mapped into the device's address space (a kernel can read and
+// write it over PCIe without a copy: the small-batch path). Both grow by size class (powers of two), so that a stream of batches of similar
 // sizes allocates a few times at most and never on the steady path.
 #pragma once
 
@@ -25,6 +26,8 @@ class Allocation {
   Status allocate_zeroed(std::size_t bytes);
 
   void* data() const { return data_; }
+  /// Pinned host memory: the address kernels use for it (equal to data() with unified addressing).
+  void* device_address() const { return device_address_; }
   template <class T> T* as() const { return static_cast<T*>(data_); }
   std::size_t capacity() const { return capacity_; }
 
@@ -34,6 +37,7 @@ class Allocation {
 
   MemoryKind kind_;
   void* data_ = nullptr;
+  void* device_address_ = nullptr;
   std::size_t capacity_ = 0;
 };
 

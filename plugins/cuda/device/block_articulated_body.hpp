@@ -98,14 +98,15 @@ RBDGRAD_HD void block_articulated_body(const ModelView<S>& m, const BlockWorkspa
       const S u = w.u[i] - dot(Sj, get6(w.pA, i));
       const S dinv = S(1) / d;
       const S* IA = w.IA + 36 * i;
+      const S* Ui = w.U + 6 * i;  // indexed at run time: read in place, not from the local copy
       if (e < 36) {
         const int r = e / 6, k = e % 6;
-        w.to_parent[42 * i + e] = IA[e] - U.v[r] * dinv * U.v[k];
+        w.to_parent[42 * i + e] = IA[e] - Ui[r] * dinv * Ui[k];
       } else if (e < 42) {
         const int r = e - 36;
-        const S Ud = U.v[r] * dinv;
+        const S Ud = Ui[r] * dinv;
         S s = w.pA[6 * i + r];
-        for (int k = 0; k < 6; ++k) s += (IA[6 * r + k] - Ud * U.v[k]) * w.aba_c[6 * i + k];
+        for (int k = 0; k < 6; ++k) s += (IA[6 * r + k] - Ud * Ui[k]) * w.aba_c[6 * i + k];
         w.to_parent[42 * i + e] = s + Ud * u;
       } else {
         w.aba_d[i] = d;
@@ -124,9 +125,11 @@ RBDGRAD_HD void block_articulated_body(const ModelView<S>& m, const BlockWorkspa
         if (e < 36) {
           w.IA[36 * par + e] += shifted_inertia_entry(up, dist, e / 6, e % 6);
         } else {
-          Vec6<S> pa;
-          for (int k = 0; k < 6; ++k) pa.v[k] = up[36 + k];
-          w.pA[6 * par + e - 36] += shift_force(pa, dist).v[e - 36];
+          // shift_force(pa, dist), component r: [n + f x d; f]
+          const int r = e - 36;
+          const S* pa = up + 36;
+          w.pA[6 * par + r] += r < 3 ? pa[r] + (pa[3 + (r + 1) % 3] * dist[(r + 2) % 3] - pa[3 + (r + 2) % 3] * dist[(r + 1) % 3])
+                                     : pa[r];
         }
       }
     });

@@ -3,8 +3,8 @@
 // over the tree become sums over a joint's ancestors (world-frame velocities and accelerations
 // are prefix sums of per-joint terms) or over its subtree (a contiguous index range in
 // depth-first order), so they need no serial loop over the bodies either; the columns of dc'/du
-// and of M^-1 are found in parallel. Only the factorization of M (and, in f32, the
-// articulated-body pass) walks the tree. The working set stays in shared memory.
+// and of M^-1 are found in parallel. Only the inversion of M (one exchange step per joint) and,
+// in f32, the articulated-body pass (one step per tree level) are serial. The working set stays in shared memory.
 //
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
 // checks, so that both kernels fail a state for the same reason and agree to rounding. It covers
@@ -20,6 +20,8 @@
 
 namespace rbdgrad::cuda {
 
+// The largest model the passes' index arithmetic is written for (cuda_instance.hpp's kMaxNv).
+inline constexpr int kMaxBlockNv = 64;
 inline constexpr std::uint32_t kBlockOutputs = kOutputQdd | kOutputMinv | kOutputDqddDq | kOutputDqddDqd;
 
 template <class S>
@@ -58,18 +60,47 @@ RBDGRAD_HD S dot6(const S* a, const S* b) {
   return s;
 }
 
-// Solves M x = b in place for column col of a row-major matrix X with `stride` columns
-// (x(i) = X[i stride + col]) with the factors M = L^T D L (solve_with_factors of mass_inverse.hpp).
+// t / n and t % n by a float reciprocal: an integer division by a run-time n costs about twenty
+// instructions, and the passes over matrix entries do one per item. Exact for t < 2^20, n <= 64
+// (the rounding error of (t + 1/2) / n stays far below the 1/(2n) margin to the next integer).
+struct Divider {
+  int n;
+  float inverse;
+  RBDGRAD_HD explicit Divider(int d) : n(d), inverse(1.0f / static_cast<float>(d)) {}
+  RBDGRAD_HD int quotient(int t) const { return static_cast<int>((static_cast<float>(t) + 0.5f) * inverse); }
+  RBDGRAD_HD int remainder(int t) const { return t - quotient(t) * n; }
+};
+
+// Components of the spatial cross products, the operands read in place (element e of x at
+// x[e * stride]): one component per thread, and no local array indexed at run time.
 template <class S>
-RBDGRAD_HD void solve_column(const ModelView<S>& m, const BlockWorkspace<S>& w, S* X, int stride, int col) {
-  const int n = m.nv;
-  const S* L = w.M;
-  auto x = [&](int i) -> S& { return X[i * stride + col]; };
-  for (int k = n - 1; k >= 0; --k)
-    for (int i = m.parent[k]; i >= 0; i = m.parent[i]) x(i) -= L[k * n + i] * x(k);
-  for (int k = 0; k < n; ++k) x(k) *= w.Dinv[k];
-  for (int i = 0; i < n; ++i)
-    for (int k = m.parent[i]; k >= 0; k = m.parent[k]) x(i) -= L[i * n + k] * x(k);
+RBDGRAD_HD S cross3_at(const S* a, int sa, const S* b, int sb, int r) {
+  const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+  return a[r1 * sa] * b[r2 * sb] - a[r2 * sa] * b[r1 * sb];
+}
+// (m1 x m2)_c
+template <class S>
+RBDGRAD_HD S cross_motion_at(const S* m1, int s1, const S* m2, int s2, int c) {
+  if (c < 3) return cross3_at(m1, s1, m2, s2, c);
+  return cross3_at(m1, s1, m2 + 3 * s2, s2, c - 3) + cross3_at(m1 + 3 * s1, s1, m2, s2, c - 3);
+}
+// (m x* f)_c
+template <class S>
+RBDGRAD_HD S cross_force_at(const S* m, int sm, const S* f, int sf, int c) {
+  if (c < 3) return cross3_at(m, sm, f, sf, c) + cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, c);
+  return cross3_at(m, sm, f + 3 * sf, sf, c - 3);
+}
+// skew(x)(row, col)
+template <class S>
+RBDGRAD_HD S skew_at(const S* x, int row, int col) {
+  if (row == col) return S(0);
+  const S value = x[3 - row - col];
+  return (col - row + 3) % 3 == 1 ? -value : value;
+}
+// the gravity acceleration [0; -g], component c
+template <class S>
+RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
+  return c < 3 ? S(0) : -m.gravity[c - 3];
 }
 
 }  // namespace block
@@ -81,29 +112,30 @@ template <class S>
 RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
                                      std::uint64_t k, bool active, const ThreadGroup& g) {
   using block::col_dot;
+  using block::cross_force_at;
+  using block::cross_motion_at;
   using block::dot6;
+  using block::gravity_at;
   using block::row_dot;
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   const S* fext = b.fext ? b.fext + k * 6 * vec : nullptr;
-  const S ag[6] = {S(0), S(0), S(0), -m.gravity[0], -m.gravity[1], -m.gravity[2]};
+  const block::Divider by_n(n);
 
-  // inputs
+  if (g.rank == 0) *w.status = *w.not_finite = 0;
+  // the inputs (read once: they may be host memory, over PCIe), and the joint transforms in the
+  // parent frames
   g.for_each(n, [&](int i) {
-    w.q[i] = b.q[k * vec + i];
+    const S qi = b.q[k * vec + i];
+    w.q[i] = qi;
     w.qd[i] = b.qd[k * vec + i];
     w.u[i] = b.u[k * vec + i];
     if (!b.tau_input) w.qdd[i] = w.u[i];
-  });
-  if (g.rank == 0) *w.status = *w.not_finite = 0;
-  // joint transforms in the parent frames
-  g.for_each(n, [&](int i) {
     const S* R0 = m.joint_rotation + 9 * i;
     S* Rl = w.R_local + 9 * i;
     S* pl = w.p_local + 3 * i;
     for (int e = 0; e < 9; ++e) Rl[e] = R0[e];
     for (int r = 0; r < 3; ++r) pl[r] = m.joint_translation[3 * i + r];
-    const S qi = b.q[k * vec + i];
     if (!m.prismatic[i]) {
       using std::cos;
       using std::sin;
@@ -136,43 +168,79 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     }
   });
   g.sync();
-  // axes, inertias at the world origin (and the joint points), external forces in the world
-  g.for_each(n, [&](int i) {
-    Mat3<S> R;
-    for (int e = 0; e < 9; ++e) R.m[e] = w.R[9 * i + e];
+  // axes, centres of mass and rotational inertias in world axes, external forces in the world:
+  // every entry of every body in parallel (the local transforms are not needed any more, their
+  // arrays hold c = R com and Icw = R Ic R^T)
+  S* const com_w = w.p_local;
+  S* const Icw = w.R_local;
+  constexpr int kBodyTerms = 24;  // axis 6, c 3, Icw 9, external force 6
+  g.for_each(kBodyTerms * n, [&](int t) {
+    const int i = t / kBodyTerms, e = t % kBodyTerms;
+    const S* R = w.R + 9 * i;
     const S* p = w.p + 3 * i;
-    const S z[3] = {R.m[2], R.m[5], R.m[8]};
-    S* axis = w.axis + 6 * i;
-    if (!m.prismatic[i]) {
-      for (int r = 0; r < 3; ++r) axis[r] = z[r];
-      cross3(p, z, axis + 3);
+    if (e < 6) {
+      // revolute: [z; p x z], prismatic: [0; z], z = R e_z
+      S x;
+      if (!m.prismatic[i]) x = e < 3 ? R[3 * e + 2] : p[(e + 1) % 3] * R[3 * ((e + 2) % 3) + 2] - p[(e + 2) % 3] * R[3 * ((e + 1) % 3) + 2];
+      else x = e < 3 ? S(0) : R[3 * (e - 3) + 2];
+      w.axis[6 * i + e] = x;
+    } else if (e < 9) {
+      const int r = e - 6;
+      const S* com = m.com + 3 * i;
+      com_w[3 * i + r] = R[3 * r] * com[0] + R[3 * r + 1] * com[1] + R[3 * r + 2] * com[2];
+    } else if (e < 18) {
+      // (R Ic) R^T, entry (r, k), in the order of mul and mul_transposed
+      const int r = (e - 9) / 3, k = (e - 9) % 3;
+      const S* Ic = m.inertia_com + 9 * i;
+      S RIc[3];
+      for (int b2 = 0; b2 < 3; ++b2) RIc[b2] = R[3 * r] * Ic[b2] + R[3 * r + 1] * Ic[3 + b2] + R[3 * r + 2] * Ic[6 + b2];
+      Icw[9 * i + 3 * r + k] = RIc[0] * R[3 * k] + RIc[1] * R[3 * k + 1] + RIc[2] * R[3 * k + 2];
+    } else if (fext) {
+      // [moment about the link origin; force] in the URDF link frame -> world axes, world origin:
+      // force Rl f, moment Rl n + p x (Rl f), Rl = R * link_rotation
+      const int r = e - 18;
+      const S* lr = m.link_rotation + 9 * i;
+      const S* fl = fext + 6 * i;
+      auto rotated = [&](int row, const S* x) {
+        S Rl[3];
+        for (int b2 = 0; b2 < 3; ++b2) Rl[b2] = R[3 * row] * lr[b2] + R[3 * row + 1] * lr[3 + b2] + R[3 * row + 2] * lr[6 + b2];
+        return Rl[0] * x[0] + Rl[1] * x[1] + Rl[2] * x[2];
+      };
+      S x;
+      if (r >= 3) {
+        x = rotated(r - 3, fl + 3);
+      } else {
+        const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+        x = rotated(r, fl) + (p[r1] * rotated(r2, fl + 3) - p[r2] * rotated(r1, fl + 3));
+      }
+      w.f_ext[6 * i + r] = x;
+    }
+  });
+  g.sync();
+  // spatial inertias at the world origin (centre of mass c + p) and, for the articulated-body
+  // pass, at the joint point (c), entry by entry as spatial_inertia builds them
+  g.for_each((w.I_joint ? 72 : 36) * n, [&](int t) {
+    const int i = w.I_joint ? t / 72 : t / 36;
+    const int local = w.I_joint ? t % 72 : t % 36;
+    const bool joint_point = local >= 36;
+    const int e = local % 36, r = e / 6, k = e % 6;
+    const S mass = m.mass[i];
+    S c[3];
+    for (int x = 0; x < 3; ++x) c[x] = com_w[3 * i + x] + (joint_point ? S(0) : w.p[3 * i + x]);
+    const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
+    S value;
+    if (r < 3 && k < 3) {
+      const S mcxcx = block::skew_at(mc, r, 0) * block::skew_at(c, 0, k) + block::skew_at(mc, r, 1) * block::skew_at(c, 1, k) +
+                      block::skew_at(mc, r, 2) * block::skew_at(c, 2, k);
+      value = Icw[9 * i + 3 * r + k] - mcxcx;
+    } else if (r < 3) {
+      value = block::skew_at(mc, r, k - 3);
+    } else if (k < 3) {
+      value = -block::skew_at(mc, r - 3, k);
     } else {
-      for (int r = 0; r < 3; ++r) {
-        axis[r] = S(0);
-        axis[r + 3] = z[r];
-      }
+      value = r == k ? mass : S(0);
     }
-    const Vec3<S> c = mul(R, m.com + 3 * i);
-    const Mat3<S> Icw = mul_transposed(mul(R, m.mat3(m.inertia_com, i)), R);
-    if (w.I_joint) {
-      const Mat6<S> Ij = spatial_inertia(m.mass[i], c, Icw);
-      for (int e = 0; e < 36; ++e) w.I_joint[36 * i + e] = Ij.m[e];
-    }
-    const Vec3<S> cw{{c.v[0] + p[0], c.v[1] + p[1], c.v[2] + p[2]}};
-    const Mat6<S> I = spatial_inertia(m.mass[i], cw, Icw);
-    for (int e = 0; e < 36; ++e) w.I[36 * i + e] = I.m[e];
-    if (fext) {
-      // [moment about the link origin; force] in the URDF link frame -> world axes, world origin
-      const Mat3<S> Rlink = mul(R, m.mat3(m.link_rotation, i));
-      const Vec3<S> f = mul(Rlink, fext + 6 * i + 3);
-      const Vec3<S> nm = mul(Rlink, fext + 6 * i);
-      S* out = w.f_ext + 6 * i;
-      for (int r = 0; r < 3; ++r) {
-        out[r] = nm.v[r];
-        out[r + 3] = f.v[r];
-      }
-      cross3(p, out + 3, out, true);
-    }
+    (joint_point ? w.I_joint : w.I)[36 * i + e] = value;
   });
   g.sync();
   // velocities: sums of S_j qd_j over the ancestors-or-self
@@ -186,13 +254,13 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0)
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
-    w.alpha[t] = par < 0 ? S(0) : cross_motion(get6(w.v, par), get6(w.axis, i)).v[c];
+    w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
-    S s = ag[c];
+    S s = gravity_at(m, c);
     for (int j = i; j >= 0; j = m.parent[j]) s += w.alpha[6 * j + c] * w.qd[j];
     w.a[t] = s;
   });
@@ -208,26 +276,19 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   g.for_each(42 * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
-      w.f[t] += cross_force(get6(w.v, i), get6(w.F, i)).v[c] - (fext ? w.f_ext[t] : S(0));
+      w.f[t] += cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0));
       return;
     }
     const int e = t - 6 * n, i = e / 36, r = (e % 36) / 6, c = e % 6;
-    const Vec6<S> v = get6(w.v, i);
-    Vec6<S> col_c, col_r;
-    for (int x = 0; x < 6; ++x) {
-      col_c.v[x] = w.I[36 * i + 6 * x + c];
-      col_r.v[x] = w.I[36 * i + 6 * x + r];
-    }
-    S value = cross_force(v, col_c).v[r] + cross_force(v, col_r).v[c];
+    const S* v = w.v + 6 * i;
+    const S* I = w.I + 36 * i;
+    // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I, stride 6
+    S value = cross_force_at(v, 1, I + c, 6, r) + cross_force_at(v, 1, I + r, 6, c);
     const S* h = w.F + 6 * i;
     // - hn x in the top-left block, - hf x in the two off-diagonal blocks
-    auto skew_entry = [](const S* x, int row, int col) -> S {
-      const Mat3<S> X = skew(x);
-      return X.m[3 * row + col];
-    };
-    if (r < 3 && c < 3) value -= skew_entry(h, r, c);
-    else if (r < 3) value -= skew_entry(h + 3, r, c - 3);
-    else if (c < 3) value -= skew_entry(h + 3, r - 3, c);
+    if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
+    else if (r < 3) value -= block::skew_at(h + 3, r, c - 3);
+    else if (c < 3) value -= block::skew_at(h + 3, r - 3, c);
     w.B[e] = value;
   });
   g.sync();
@@ -266,7 +327,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   // M and d tau/d qd entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry
   // in row a and row b's entry in column a; entries of unrelated joints are zero
   g.for_each(n * n, [&](int t) {
-    const int a = t / n, bb = t % n;
+    const int a = by_n.quotient(t), bb = t - a * n;
     if (m.contains(a, bb)) {
       const S* Sa = w.axis + 6 * a;
       const S mass = dot6(Sa, w.Ic_S + 6 * bb);
@@ -289,40 +350,44 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     if (b.tau_input) block_articulated_body(m, w, fext != nullptr, g);
   }
 
-  // M = L^T D L in place, leaves first (factorize_mass_matrix); the scaling of row k + 1 by its
-  // pivot runs with step k, which neither reads nor writes that row
-  for (int kk = n - 1; kk >= 0; --kk) {
-    if (g.rank == 0 && *w.status == 0) {
-      const S d = w.M[kk * n + kk];
-      if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, kk);
-      else if (!(d > S(0))) *w.status = state_status(Reason::kMassNotPositive, Algorithm::kNone, kk);
+  // M^-1 by exchange (Gauss-Jordan) steps, every entry of a step in parallel, between M and Minv.
+  // The pivots go leaves first, as the core's factorization M = L^T D L does: the pivot of joint
+  // k is then D[k] (the Schur complement of the joints after it), so a state fails at the same
+  // joint for the same reason (factorize_mass_matrix).
+  S* inverse = w.M;
+  {
+    S* other = w.Minv;
+    for (int pv = n - 1; pv >= 0; --pv) {
+      const S* A = inverse;
+      if (g.rank == 0 && *w.status == 0) {
+        const S d = A[pv * n + pv];
+        if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
+        else if (!(d > S(0))) *w.status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
+      }
+      const S r = S(1) / A[pv * n + pv];
+      g.for_each(n * n, [&](int t) {
+        const int i = by_n.quotient(t), j = t - i * n;
+        S x;
+        if (i == pv && j == pv) x = r;
+        else if (i == pv) x = -A[pv * n + j] * r;
+        else if (j == pv) x = A[i * n + pv] * r;
+        else x = A[t] - A[i * n + pv] * r * A[pv * n + j];
+        other[t] = x;
+      });
+      g.sync();
+      S* const result = other;
+      other = inverse;
+      inverse = result;
     }
-    g.for_each(n * n + n, [&](int t) {
-      if (t < n * n) {
-        const int i = t / n, j = t % n;
-        if (i != kk && m.contains(i, kk) && m.contains(j, i)) {
-          const S a = w.M[kk * n + i] / w.M[kk * n + kk];
-          w.M[i * n + j] -= a * w.M[kk * n + j];
-        }
-        return;
-      }
-      const int i = t - n * n, prev = kk + 1;
-      if (prev < n && i != prev && m.contains(i, prev)) w.M[prev * n + i] /= w.M[prev * n + prev];
-    });
-    g.sync();
   }
-  g.for_each(n, [&](int i) {
-    w.D[i] = w.M[i * n + i];
-    w.Dinv[i] = S(1) / w.D[i];
-  });
-  g.sync();
   if constexpr (std::is_same_v<S, double>) {
-    // f64: qdd = M^-1 (tau - c) with the factors
+    // f64: qdd = M^-1 (tau - c)
     if (b.tau_input) {
-      if (g.rank == 0) {
-        for (int i = 0; i < n; ++i) w.qdd[i] = w.u[i] - w.c[i];
-        block::solve_column(m, w, w.qdd, 1, 0);
-      }
+      g.for_each(n, [&](int i) {
+        S s = S(0);
+        for (int j = 0; j < n; ++j) s += inverse[i * n + j] * (w.u[j] - w.c[j]);
+        w.qdd[i] = s;
+      });
       g.sync();
     }
   }
@@ -337,10 +402,12 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   g.sync();
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
-    Vec6<S> a_par, v_par{};
-    for (int x = 0; x < 6; ++x) a_par.v[x] = par < 0 ? ag[x] : w.a[6 * par + x] + w.a_qdd[6 * par + x];
-    if (par >= 0) v_par = get6(w.v, par);
-    w.beta[t] = add(cross_motion(a_par, get6(w.axis, i)), cross_motion(v_par, get6(w.alpha, i))).v[c];
+    // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the root)
+    S a_par[6];
+    for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
+    S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
+    if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
+    w.beta[t] = beta;
     w.f_qdd[t] = row_dot(w.I, i, c, w.a_qdd + 6 * i);
   });
   g.sync();
@@ -354,53 +421,49 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
-    w.Dq[t] = cross_force(get6(w.axis, i), get6(w.F_total, i)).v[c] + row_dot(w.Ic, i, c, w.beta + 6 * i) +
+    w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) + row_dot(w.Ic, i, c, w.beta + 6 * i) +
               row_dot(w.Bc, i, c, w.alpha + 6 * i);
   });
   g.sync();
   g.for_each(n * n, [&](int t) {
-    const int a = t / n, bb = t % n;
+    const int a = by_n.quotient(t), bb = t - a * n;
     if (!m.contains(a, bb)) return;
     w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
     if (a != bb) w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
   });
   g.sync();
 
-  // the columns of d qdd/d u = -M^-1 dc'/du and of M^-1 in parallel; each thread writes its own
-  // outputs and flags what is not finite
+  // d qdd/d u = -M^-1 dc'/du and the other outputs, every entry in parallel; each thread writes
+  // its own entries (consecutive items, consecutive addresses) and flags what is not finite
   S* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
   S* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
   S* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
   S* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  g.for_each((want_minv ? 3 : 2) * n + 1, [&](int t) {
-    bool finite = true;
-    if (t == 0) {
-      for (int i = 0; i < n; ++i) {
-        finite = finite && is_finite(w.qdd[i]);
-        if (out_qdd) out_qdd[k * vec + i] = w.qdd[i];
-      }
-    } else if (t <= 2 * n) {
-      const int col = (t - 1) % n;
-      S* X = t <= n ? w.dtau_dq : w.dtau_dqd;
-      S* out = t <= n ? out_dq : out_dqd;
-      block::solve_column(m, w, X, n, col);
-      for (int i = 0; i < n; ++i) {
-        const S x = -X[i * n + col];
-        finite = finite && is_finite(x);
-        if (out) out[k * mat + static_cast<std::uint64_t>(i) * vec + col] = x;
-      }
+  g.for_each(n + (want_minv ? 3 : 2) * n * n, [&](int t) {
+    S x;
+    S* out;
+    std::uint64_t at;
+    if (t < n) {
+      x = w.qdd[t];
+      out = out_qdd;
+      at = k * vec + t;
+    } else if (t < n + 2 * n * n) {
+      const int e = t < n + n * n ? t - n : t - n - n * n, i = by_n.quotient(e), j = e - i * n;
+      const S* dtau = t < n + n * n ? w.dtau_dq : w.dtau_dqd;
+      S s = S(0);
+      for (int r = 0; r < n; ++r) s += inverse[i * n + r] * dtau[r * n + j];
+      x = -s;
+      out = t < n + n * n ? out_dq : out_dqd;
+      at = k * mat + e;
     } else {
-      const int col = t - 1 - 2 * n;
-      for (int i = 0; i < n; ++i) w.Minv[i * n + col] = i == col ? S(1) : S(0);
-      block::solve_column(m, w, w.Minv, n, col);
-      for (int i = 0; i < n; ++i) {
-        const S x = w.Minv[i * n + col];
-        finite = finite && is_finite(x);
-        if (out_minv) out_minv[k * mat + static_cast<std::uint64_t>(i) * vec + col] = x;
-      }
+      const int e = t - n - 2 * n * n;
+      x = inverse[e];
+      out = out_minv;
+      at = k * mat + e;
     }
-    if (!finite) *w.not_finite = 1;
+    if (!is_finite(x)) *w.not_finite = 1;
+    if (out) out[at] = x;
   });
   g.sync();
   if (g.rank == 0 && active) {

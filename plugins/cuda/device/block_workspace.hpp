@@ -13,8 +13,8 @@ namespace rbdgrad::cuda {
 
 template <class S>
 struct BlockWorkspace {
-  // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0), the factors' diagonal and its inverse
-  S *q, *qd, *u, *qdd, *c, *D, *Dinv;
+  // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
+  S *q, *qd, *u, *qdd, *c;
   // per body: local and world placements (row-major 3x3 and 3-vectors)
   S *R_local, *p_local, *R, *p;
   // per body 6-vectors: axis S, velocity, alpha = v_parent x S, acceleration (qdd = 0), beta,
@@ -23,8 +23,8 @@ struct BlockWorkspace {
   S *axis, *v, *alpha, *a, *beta, *a_qdd, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
   // per body 6x6 (row-major): inertia at the world origin, its B operator, and their subtree sums
   S *I, *B, *Ic, *Bc;
-  // nv x nv row-major: M (factorized in place into L and D), d tau/d q, d tau/d qd (solved in
-  // place into -d qdd/d q and -d qdd/d qd), and columns of M^-1
+  // nv x nv row-major: M, d tau/d q, d tau/d qd, and the other buffer of the inversion (M^-1 ends
+  // in M or here, by the parity of nv)
   S *M, *dtau_dq, *dtau_dqd, *Minv;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
@@ -36,13 +36,13 @@ struct BlockWorkspace {
   // scalars of S per state
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    return (7 + 24 + 90 + 144 + (with_aba ? 140 : 0)) * n + 4 * n * n + kStatusScalars;
+    return (5 + 24 + 90 + 144 + (with_aba ? 140 : 0)) * n + 4 * n * n + kStatusScalars;
   }
 
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : next_(base) {
     const int n = nv;
     // arrays rather than initializer lists: device code has no std::initializer_list
-    S** const vectors[] = {&q, &qd, &u, &qdd, &c, &D, &Dinv};
+    S** const vectors[] = {&q, &qd, &u, &qdd, &c};
     for (S** x : vectors) *x = take(n);
     R_local = take(9 * n);
     p_local = take(3 * n);

@@ -43,14 +43,14 @@ struct ModelView {
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;
   static constexpr int kIntsPerJoint = 5;
-  static int scalars(int nv) { return kScalarsPerJoint * nv; }
+  static RBDGRAD_HD int scalars(int nv) { return kScalarsPerJoint * nv; }
   // level_start has at most nv + 1 entries
-  static int ints(int nv) { return kIntsPerJoint * nv + 1; }
+  static RBDGRAD_HD int ints(int nv) { return kIntsPerJoint * nv + 1; }
 };
 
 // A view onto blocks laid out as ModelLayout says (host or device memory alike).
 template <class S>
-ModelView<S> model_view(int nv, int levels, const S* scalars, const int* ints, const S (&gravity)[3]) {
+RBDGRAD_HD ModelView<S> model_view(int nv, int levels, const S* scalars, const int* ints, const S (&gravity)[3]) {
   ModelView<S> m;
   m.nv = nv;
   m.parent = ints;

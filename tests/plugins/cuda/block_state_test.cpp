@@ -66,6 +66,16 @@ void check_robot(const std::string& robot) {
   }
 }
 
+TEST(BlockStateOnHost, DividerIsExactForEveryIndexOfAPass) {
+  for (int n = 1; n <= cuda::kMaxBlockNv; ++n) {
+    const cuda::block::Divider d(n);
+    for (int t = 0; t < 4 * n * n + 64 * n; ++t) {
+      ASSERT_EQ(d.quotient(t), t / n) << t << " / " << n;
+      ASSERT_EQ(d.remainder(t), t % n) << t << " % " << n;
+    }
+  }
+}
+
 TEST(BlockStateOnHost, TakesOnlyTheGradientRequests) {
   const Model model = robot_model("iiwa14");
   CudaBatch<double> a(random_inputs(model, 1, 5), model.nv, true);

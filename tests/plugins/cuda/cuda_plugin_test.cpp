@@ -97,7 +97,7 @@ TEST(CudaPlugin, OptionsAreChecked) {
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << bad << ": " << e->message;
     EXPECT_NE(e->message.find("option 'workspace_mib'"), std::string::npos) << e->message;
   }
-  create(api(), iiwa().desc(), {{"threads_per_state", "0"}}, &e);
+  create(api(), iiwa().desc(), {{"states_per_block", "0"}}, &e);
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   create(api(), iiwa().desc(), {{"threads_per_state", "512"}, {"states_per_block", "4"}}, &e);

@@ -46,6 +46,7 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   OneBatch run(model.nv, 100, gradient);
   ASSERT_TRUE(instance->compute(&run.b));
   EXPECT_TRUE(instance->last_used_block_kernel());
+  EXPECT_TRUE(instance->last_used_mapped_io()) << "100 states: no copies by default";
   OneBatch with_m(model.nv, 100, gradient | RBDGRAD_OUTPUT_M);
   ASSERT_TRUE(instance->compute(&with_m.b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "M is not a block-kernel output";
@@ -54,9 +55,14 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
 
   KernelOptions options;
   options.block_max_states = 99;
+  options.mapped_io_max_states = 0;
   ASSERT_TRUE(instance->set_kernel_options(options));
-  ASSERT_TRUE(instance->compute(&run.b));
+  OneBatch again(model.nv, 100, gradient);
+  ASSERT_TRUE(instance->compute(&again.b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "100 states, more than block_max_states";
+  EXPECT_FALSE(instance->last_used_mapped_io());
+  // copies or none, either kernel: the same numbers
+  for (std::size_t e = 0; e < run.dq.size(); ++e) EXPECT_NEAR(run.dq[e], again.dq[e], 1e-9 * (1 + std::abs(run.dq[e])));
   options.block_shape = {1024, 2};
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
