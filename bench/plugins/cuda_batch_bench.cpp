@@ -7,7 +7,10 @@
 // (real time). Without a GPU every case is skipped with the reason.
 #include <benchmark/benchmark.h>
 
+#include <cuda_runtime_api.h>
+
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <random>
@@ -31,14 +34,31 @@ Model load(const std::string& robot) {
   return m;
 }
 
-// Inputs and outputs of one batch in the precision's scalar type, host memory the caller owns.
+// Inputs and outputs of one batch in the precision's scalar type, host memory the caller owns:
+// ordinary (pageable) memory, or pinned (cudaMallocHost) as the anchors' pinned columns have it.
 template <class S>
 struct Batch {
   std::vector<S> q, qd, tau, dq, dqd;
   std::vector<int32_t> status;
+  std::vector<void*> pinned;
   rbdgrad_batch view{};
 
-  Batch(int nv, std::size_t n, std::uint32_t precision) {
+  ~Batch() {
+    for (void* p : pinned) cudaFreeHost(p);
+  }
+  Batch(const Batch&) = delete;
+  Batch& operator=(const Batch&) = delete;
+
+  // a pinned copy of x (nullptr if the allocation fails)
+  S* pin(const std::vector<S>& x) {
+    void* p = nullptr;
+    if (cudaMallocHost(&p, x.size() * sizeof(S)) != cudaSuccess) return nullptr;
+    std::memcpy(p, x.data(), x.size() * sizeof(S));
+    pinned.push_back(p);
+    return static_cast<S*>(p);
+  }
+
+  Batch(int nv, std::size_t n, std::uint32_t precision, bool pinned_memory) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(-1, 1);
     const std::size_t v = n * static_cast<std::size_t>(nv), mat = v * static_cast<std::size_t>(nv);
@@ -60,6 +80,13 @@ struct Batch {
     view.dqdd_dq = dq.data();
     view.dqdd_dqd = dqd.data();
     view.state_status = status.data();
+    if (pinned_memory) {
+      view.q = pin(q);
+      view.qd = pin(qd);
+      view.u = pin(tau);
+      view.dqdd_dq = pin(dq);
+      view.dqdd_dqd = pin(dqd);
+    }
   }
 };
 
@@ -109,7 +136,8 @@ Kernel block_kernel(int threads_per_state, int states_per_block) {
 }
 
 template <class S>
-void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel) {
+void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel,
+              bool pinned_memory) {
   rbdgrad::cuda::CudaInstance* instance = backend().instance(robot);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
@@ -119,7 +147,11 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
     state.SkipWithError(s.to_string().c_str());
     return;
   }
-  Batch<S> b(load(robot).nv, n, precision);
+  Batch<S> b(load(robot).nv, n, precision, pinned_memory);
+  if (pinned_memory && (!b.view.q || !b.view.dqdd_dqd)) {
+    state.SkipWithError("cudaMallocHost failed");
+    return;
+  }
   // the first call sizes the device and pinned buffers: not part of the steady state
   if (Status s = instance->compute(&b.view); !s) {
     state.SkipWithError(s.to_string().c_str());
@@ -137,22 +169,26 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   state.counters["kernel_us"] = 1e3 * kernel_ms / static_cast<double>(state.iterations());
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
   state.counters["mapped_io"] = instance->last_used_mapped_io() ? 1 : 0;
+  state.counters["pinned_arrays"] = instance->last_pinned_arrays();
   state.counters["states_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * n), benchmark::Counter::kIsRate);
 }
 
 template <class S>
-void add(const std::string& family, const std::string& robot, std::size_t n, const Kernel& kernel) {
+void add(const std::string& family, const std::string& robot, std::size_t n, const Kernel& kernel,
+         bool pinned_memory = true) {
   constexpr bool f32 = std::is_same_v<S, float>;
-  const std::string name = family + "/" + kernel.name + (f32 ? "/f32/" : "/f64/") + robot + "/N" + std::to_string(n);
+  const std::string name = family + "/" + kernel.name + (pinned_memory ? "/pinned" : "/pageable") +
+                           (f32 ? "/f32/" : "/f64/") + robot + "/N" + std::to_string(n);
   benchmark::RegisterBenchmark(name.c_str(), cuda_e2e<S>, robot, n, f32 ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64,
-                               kernel)
+                               kernel, pinned_memory)
       ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
 }
 
 // cuda_e2e: the anchors' sizes with the defaults (the block kernel, copies skipped for small
-// batches), with copies at every size, and with the one-thread kernel; cuda_shape: the block
-// kernel's shapes at a few sizes, to choose the default by measurement.
+// batches), the caller's arrays pinned (the anchors' pinned columns) and pageable; then copies at
+// every size, and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to
+// choose the default by measurement.
 const bool registered = [] {
   const Kernel kernels[] = {block_kernel(true), block_kernel(false), thread_kernel()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
@@ -160,8 +196,11 @@ const bool registered = [] {
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
         // the one-thread kernel (the first increment) at three sizes, for comparison
         if (kernel.name == "thread" && n != 16 && n != 1024 && n != 65536) continue;
-        add<float>("cuda_e2e", robot, n, kernel);
-        add<double>("cuda_e2e", robot, n, kernel);
+        for (const bool pinned_memory : {true, false}) {
+          if (kernel.name != "block" && !pinned_memory) continue;
+          add<float>("cuda_e2e", robot, n, kernel, pinned_memory);
+          add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
+        }
       }
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})

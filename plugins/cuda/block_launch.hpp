@@ -18,15 +18,17 @@ struct BlockShape {
   int states_per_block = 1;
 };
 
-/// The shape a launch uses: an automatic threads_per_state is 4 per joint, rounded up to a power
-/// of two, from 64 to 256 (measured on an H200, docs/benchmarks/cuda.md: 64 is the fastest for
-/// iiwa14, 128 and more for talos_reduced's 32 joints).
-inline BlockShape block_shape_for(const BlockShape& requested, int nv) {
+/// The shape a launch of n states uses. An automatic threads_per_state (measured on an H200,
+/// docs/benchmarks/cuda.md): 256 for batches of up to kWideStates, which leave most of the GPU
+/// idle, so that the latency of one state is what counts; for larger ones 8 per joint, rounded up
+/// to a power of two, from 64 to 256 (64 is the fastest for iiwa14 there, 256 for talos_reduced).
+inline constexpr std::size_t kWideStates = 256;
+inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n) {
   BlockShape shape = requested;
   if (shape.threads_per_state == 0) {
     int t = 64;
-    while (t < 4 * nv && t < 256) t *= 2;
-    shape.threads_per_state = t;
+    while (t < 8 * nv && t < 256) t *= 2;
+    shape.threads_per_state = n <= kWideStates ? 256 : t;
   }
   return shape;
 }

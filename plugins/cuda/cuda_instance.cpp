@@ -43,6 +43,17 @@ void* caller_output(const rbdgrad_batch& b, int index) {
   return plugin::output_pointer(b, 1u << index);
 }
 
+// Whether the caller's array is page-locked host memory (cudaMallocHost, cudaHostRegister): the
+// copy engines then move it directly, without the staging block.
+bool is_pinned(const void* p) {
+  cudaPointerAttributes attributes{};
+  if (cudaPointerGetAttributes(&attributes, p) != cudaSuccess) {
+    cudaGetLastError();
+    return false;
+  }
+  return attributes.type == cudaMemoryTypeHost;
+}
+
 }  // namespace
 
 CudaInstance::CudaInstance(const Model& model, int device, std::size_t workspace_bytes)
@@ -138,7 +149,7 @@ std::size_t chunk_states(std::size_t n, std::size_t slots) {
 
 Status check_kernel_options(const KernelOptions& options) {
   // the largest automatic threads_per_state stands in for 0
-  const BlockShape b = block_shape_for(options.block_shape, kMaxNv);
+  const BlockShape b = block_shape_for(options.block_shape, kMaxNv, 1);
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
@@ -154,7 +165,7 @@ Status CudaInstance::set_kernel_options(const KernelOptions& options) {
 template <class S>
 bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const {
   return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
-         block_shared_bytes<S>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv)) <=
+         block_shared_bytes<S>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv, n)) <=
              max_shared_bytes_;
 }
 
@@ -208,6 +219,17 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
 
   const std::size_t chunk = mapped ? n : chunk_states(n, slots_);
   const std::size_t chunks = (n + chunk - 1) / chunk;
+  // larger batches: the caller's pinned arrays go straight to and from the device (a check costs
+  // about a microsecond, and staging a small batch hardly more)
+  bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
+  bool any_pinned = false;
+  if (!mapped) {
+    for (int k = 0; k < 5; ++k) any_pinned |= in_pinned[k] = inputs[k].from && is_pinned(inputs[k].from);
+    for (int f = 0; f < kOutputCount; ++f)
+      any_pinned |= out_pinned[f] = (b.outputs & (1u << f)) && is_pinned(caller_output(b, f));
+  }
+  // a staged batch in one chunk goes over in one copy each way
+  const bool one_copy = chunks == 1 && !mapped && !any_pinned;
   const auto chunk_begin = [&](std::size_t c) { return std::min(n, c * chunk); };
   // on an error, what is under way must finish before the buffers can be reused
   const auto fail = [&](Status s) {
@@ -217,7 +239,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   };
 
   bool block = false;
-  const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv);
+  const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv, n);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     cudaStream_t stream = streams_[c % 2];
@@ -229,18 +251,21 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     for (int k = 0; k < 5; ++k) {
       if (!inputs[k].from) continue;
       const std::size_t at = inputs[k].at + a * in_per_state[k] * sizeof(S), bytes = m * in_per_state[k] * sizeof(S);
-      // the host's part, overlapping the device's work on the previous chunk
-      std::memcpy(h_in + at, static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S), bytes);
-      // a batch in one chunk goes over in one copy, below
-      if (chunks > 1 && !mapped) {
-        if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, h_in + at, bytes, cudaMemcpyHostToDevice, stream),
+      const unsigned char* from = static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S);
+      if (!in_pinned[k]) {
+        // the host's part, overlapping the device's work on the previous chunk
+        std::memcpy(h_in + at, from, bytes);
+        from = h_in + at;
+      }
+      if (!mapped && !one_copy) {
+        if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, from, bytes, cudaMemcpyHostToDevice, stream),
                                    "copying the batch to the device");
             !s)
           return fail(s);
       }
       *device_inputs[k] = reinterpret_cast<const S*>(d_in + at);
     }
-    if (chunks == 1 && !mapped) {
+    if (one_copy) {
       if (Status s = cuda_status(cudaMemcpyAsync(d_in, h_in, in_layout.size(), cudaMemcpyHostToDevice, stream),
                                  "copying the batch to the device");
           !s)
@@ -265,18 +290,22 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
 
-    if (chunks == 1 && !mapped) {
+    if (one_copy) {
       if (Status s = cuda_status(cudaMemcpyAsync(h_out, d_out, out_layout.size(), cudaMemcpyDeviceToHost, stream),
                                  "copying the results from the device");
           !s)
         return fail(s);
     }
-    for (int f = 0; f <= kOutputCount && chunks > 1; ++f) {
+    for (int f = 0; f <= kOutputCount && !one_copy && !mapped; ++f) {
       const bool is_status = f == kOutputCount;
       if (!is_status && !(b.outputs & (1u << f))) continue;
       const std::size_t at = is_status ? status_at + a * sizeof(std::uint32_t) : out_at[f] + a * out_per_state[f] * sizeof(S);
       const std::size_t bytes = is_status ? m * sizeof(std::uint32_t) : m * out_per_state[f] * sizeof(S);
-      if (Status s = cuda_status(cudaMemcpyAsync(h_out + at, d_out + at, bytes,
+      // straight into the caller's array when it is pinned, else into the staging block
+      unsigned char* to = !is_status && out_pinned[f]
+                              ? static_cast<unsigned char*>(caller_output(b, f)) + a * out_per_state[f] * sizeof(S)
+                              : h_out + at;
+      if (Status s = cuda_status(cudaMemcpyAsync(to, d_out + at, bytes,
                                                  cudaMemcpyDeviceToHost, stream),
                                  "copying the results from the device");
           !s)
@@ -290,7 +319,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     if (Status s = cuda_status(cudaEventSynchronize(copied_[c]), "running the fused kernel"); !s) return fail(s);
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     for (int f = 0; f < kOutputCount; ++f) {
-      if (!(b.outputs & (1u << f))) continue;
+      if (!(b.outputs & (1u << f)) || out_pinned[f]) continue;
       const std::size_t at = a * out_per_state[f] * sizeof(S), bytes = m * out_per_state[f] * sizeof(S);
       std::memcpy(static_cast<unsigned char*>(caller_output(b, f)) + at, h_out + out_at[f] + at, bytes);
     }
@@ -301,6 +330,9 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     return s;
   last_block_ = block;
   last_mapped_ = mapped;
+  last_pinned_ = 0;
+  for (bool pinned : in_pinned) last_pinned_ += pinned;
+  for (bool pinned : out_pinned) last_pinned_ += pinned;
   const auto* status = reinterpret_cast<const std::uint32_t*>(h_out + status_at);
   std::size_t failures = 0, first = 0;
   for (std::size_t k = 0; k < n; ++k) {

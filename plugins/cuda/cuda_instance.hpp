@@ -3,7 +3,8 @@
 // grow by size class. compute() copies the inputs into the pinned block, then on the stream: one
 // copy in, one kernel launch for the whole batch, one copy out; then the outputs out of the
 // pinned block into the caller's arrays. Small batches skip the two device copies: the kernel
-// reads and writes the pinned blocks directly (mapped memory). Large batches go in chunks on two streams, so that the
+// reads and writes the pinned blocks directly (mapped memory). Larger batches skip the staging
+// of every caller array that is pinned itself. Large batches go in chunks on two streams, so that the
 // copies of one chunk (host staging and PCIe) overlap the kernel of another; the kernels still run
 // one after the other, as they share the workspace.
 #pragma once
@@ -82,6 +83,8 @@ class CudaInstance {
   /// Whether the last successful compute() ran the block kernel, and whether it skipped the copies.
   bool last_used_block_kernel() const { return last_block_; }
   bool last_used_mapped_io() const { return last_mapped_; }
+  /// How many of the caller's arrays the last successful compute() moved without staging (pinned).
+  int last_pinned_arrays() const { return last_pinned_; }
 
   int device() const { return device_; }
   std::size_t slots() const { return slots_; }
@@ -109,6 +112,7 @@ class CudaInstance {
   std::size_t max_shared_bytes_ = 0;  // per block, the device's opt-in limit
   bool last_block_ = false;
   bool last_mapped_ = false;
+  int last_pinned_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64
   Allocation d_model_f32_{MemoryKind::kDevice};  // same in f32

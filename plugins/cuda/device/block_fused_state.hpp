@@ -1,7 +1,8 @@
 // One state of a batch on a group of threads: the forward-dynamics gradient refactored for the GPU
 // as paper 000's Algorithm 4 asks. The per-body work of each pass runs in parallel; the recursions
 // over the tree become sums over a joint's ancestors (world-frame velocities and accelerations
-// are prefix sums of per-joint terms) or over its subtree (a contiguous index range in
+// are prefix sums of per-joint terms; a scan of the joints before it with the ancestor test, whose
+// loads do not wait on each other as a walk up the parent chain does) or over its subtree (a contiguous index range in
 // depth-first order), so they need no serial loop over the bodies either; the columns of dc'/du
 // and of M^-1 are found in parallel. Only the inversion of M (one exchange step per joint) and,
 // in f32, the articulated-body pass (one step per tree level) are serial. The working set stays in shared memory.
@@ -247,7 +248,8 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
     S s = S(0);
-    for (int j = i; j >= 0; j = m.parent[j]) s += w.axis[6 * j + c] * w.qd[j];
+    for (int j = 0; j <= i; ++j)
+      if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
     w.v[t] = s;
   });
   g.sync();
@@ -261,7 +263,8 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
     S s = gravity_at(m, c);
-    for (int j = i; j >= 0; j = m.parent[j]) s += w.alpha[6 * j + c] * w.qd[j];
+    for (int j = 0; j <= i; ++j)
+      if (m.contains(j, i)) s += w.alpha[6 * j + c] * w.qd[j];
     w.a[t] = s;
   });
   g.sync();
@@ -396,7 +399,8 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
     S s = S(0);
-    for (int j = i; j >= 0; j = m.parent[j]) s += w.axis[6 * j + c] * w.qdd[j];
+    for (int j = 0; j <= i; ++j)
+      if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
     w.a_qdd[t] = s;
   });
   g.sync();

@@ -3,7 +3,10 @@
 // memory; the one-thread kernel for everything else. Needs a GPU (skips with the reason without).
 #include <gtest/gtest.h>
 
+#include <cuda_runtime_api.h>
+
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -78,6 +81,53 @@ TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
   ASSERT_TRUE(instance->compute(&run.b));
   EXPECT_FALSE(instance->last_used_block_kernel());
   for (std::int32_t s : run.status) EXPECT_EQ(s, 0);
+}
+
+// A caller whose arrays are pinned (cudaMallocHost) gets them moved without staging, in one chunk
+// and in several, and the same numbers as a caller with ordinary memory.
+TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::unique_ptr<CudaInstance> instance;
+  if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
+  for (const std::size_t n : {1000u, 3 * 8192u + 7}) {
+    OneBatch pageable(model.nv, n, gradient);
+    for (std::size_t e = 0; e < pageable.q.size(); ++e) pageable.q[e] = 0.001 * static_cast<double>(e % 1000);
+    ASSERT_TRUE(instance->compute(&pageable.b));
+    EXPECT_EQ(instance->last_pinned_arrays(), 0);
+    // the same batch in pinned copies of every array
+    std::vector<void*> pinned;
+    auto pin = [&](const std::vector<double>& from) {
+      void* p = nullptr;
+      if (cudaMallocHost(&p, from.size() * sizeof(double)) != cudaSuccess) return static_cast<double*>(nullptr);
+      std::memcpy(p, from.data(), from.size() * sizeof(double));
+      pinned.push_back(p);
+      return static_cast<double*>(p);
+    };
+    rbdgrad_batch b = pageable.b;
+    b.q = pin(pageable.q);
+    b.qd = pin(pageable.qd);
+    b.u = pin(pageable.tau);
+    double* qdd = pin(pageable.qdd);
+    double* dq = pin(pageable.dq);
+    double* dqd = pin(pageable.dqd);
+    std::vector<std::int32_t> status(n, -1);
+    b.qdd = qdd;
+    b.dqdd_dq = dq;
+    b.dqdd_dqd = dqd;
+    b.state_status = status.data();
+    for (std::size_t e = 0; e < n * model.nv * model.nv; ++e) dq[e] = dqd[e] = std::nan("");
+    for (std::size_t e = 0; e < n * model.nv; ++e) qdd[e] = std::nan("");
+    ASSERT_TRUE(instance->compute(&b));
+    EXPECT_EQ(instance->last_pinned_arrays(), 6) << n << " states";
+    for (std::size_t e = 0; e < pageable.dq.size(); ++e) {
+      ASSERT_EQ(dq[e], pageable.dq[e]) << n << " states, element " << e;
+      ASSERT_EQ(dqd[e], pageable.dqd[e]) << n << " states, element " << e;
+    }
+    for (std::size_t e = 0; e < pageable.qdd.size(); ++e) ASSERT_EQ(qdd[e], pageable.qdd[e]) << e;
+    for (std::int32_t s : status) ASSERT_EQ(s, 0);
+    for (void* p : pinned) cudaFreeHost(p);
+  }
 }
 
 }  // namespace
