@@ -126,7 +126,7 @@ Kernel thread_kernel() {
 // the block kernel in its default shape and I/O, or with copies at every size
 Kernel block_kernel(bool mapped_io) {
   Kernel k{mapped_io ? "block" : "block-copy", {}};
-  if (!mapped_io) k.options.mapped_io_max_states = 0;
+  if (!mapped_io) k.options.mapped_io_max_kib = 0;
   return k;
 }
 Kernel block_kernel(int threads_per_state, int states_per_block) {

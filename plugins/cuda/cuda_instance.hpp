@@ -37,17 +37,19 @@ inline constexpr std::size_t kMaxChunks = 4;
 // block_max_states); larger ones, and every other request, go to the one-thread kernel.
 inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
 
-// Batches of up to this many states skip the copies: the kernel reads its inputs from the pinned
-// host block and writes its outputs into the other one, over PCIe (the plugin's option
-// mapped_io_max_states; measured in docs/benchmarks/cuda.md).
-inline constexpr std::size_t kDefaultMappedIoMaxStates = 256;
+// Batches whose inputs and outputs together take up to this many KiB skip the copies: the kernel
+// reads its inputs from the pinned host block and writes its outputs into the other one, over
+// PCIe (the plugin's option mapped_io_max_kib). On the H200 that is faster for iiwa14 up to 256
+// states (243 KiB in f64) and slower for talos_reduced from 32 states (548 KiB), see
+// docs/benchmarks/cuda.md.
+inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
 
 /// Which kernel computes a batch, the block kernel's shape, and which batches skip the copies
-/// (plugin options of the same names).
+/// (plugin options of the same names; mapped_io_max_kib 0: none).
 struct KernelOptions {
   std::size_t block_max_states = kDefaultBlockMaxStates;
   BlockShape block_shape;
-  std::size_t mapped_io_max_states = kDefaultMappedIoMaxStates;
+  std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none).

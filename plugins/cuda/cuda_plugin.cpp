@@ -75,9 +75,10 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // workspace_mib: device memory for the one-thread kernel's workspace (default 1024).
     // block_max_states: the block kernel takes gradient requests of up to this many states (0:
     // never); threads_per_state (0: by the model's size), states_per_block: its block shape.
-    // mapped_io_max_states: batches of up to this many states skip the device copies.
+    // mapped_io_max_kib: batches whose inputs and outputs take up to this many KiB skip the
+    // device copies (the kernel works on pinned host memory).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
-                                           "states_per_block", "mapped_io_max_states"});
+                                           "states_per_block", "mapped_io_max_kib"});
         !s)
       return s;
     std::uint64_t device = 0;
@@ -87,14 +88,14 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     cuda::KernelOptions kernel;
     std::uint64_t block_max = kernel.block_max_states, tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state),
                   spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block),
-                  mapped_max = kernel.mapped_io_max_states;
+                  mapped_max = kernel.mapped_io_max_kib;
     if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
     if (Status s = option_uint(options, "threads_per_state", 0, 1024, tps); !s) return s;
     if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;
-    if (Status s = option_uint(options, "mapped_io_max_states", 0, cuda::kDefaultBlockMaxStates, mapped_max); !s)
+    if (Status s = option_uint(options, "mapped_io_max_kib", 0, std::uint64_t{1} << 30, mapped_max); !s)
       return s;
     kernel.block_max_states = static_cast<std::size_t>(block_max);
-    kernel.mapped_io_max_states = static_cast<std::size_t>(mapped_max);
+    kernel.mapped_io_max_kib = static_cast<std::size_t>(mapped_max);
     kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;

@@ -82,17 +82,16 @@ RBDGRAD_HD void block_articulated_body(const ModelView<S>& m, const BlockWorkspa
   for (int level = m.levels - 1; level >= 0; --level) {
     const int first = m.level_start[level], count = m.level_start[level + 1] - first;
     // what each joint of the level passes up: Ia = IA - U U^T / d (36), pa (6); and U = IA S,
-    // d, u (1). Every item finds U itself (18 multiply-adds), which saves a pass and its sync.
+    // d, u (1). Every item finds U itself (S has three nonzeros: 18 multiply-adds), which saves a
+    // pass and its sync.
     g.for_each(43 * count, [&](int t) {
       const int i = m.level_joints[first + t / 43], e = t % 43;
       const Vec6<S> Sj = joint_point_axis(m, w, i);
       const S* IA = w.IA + 36 * i;
+      const int off = m.prismatic[i] ? 3 : 0;
       S Ui[6];
-      for (int k = 0; k < 6; ++k) {
-        S s = S(0);
-        for (int r = 0; r < 6; ++r) s += IA[6 * k + r] * Sj.v[r];
-        Ui[k] = s;
-      }
+      for (int k = 0; k < 6; ++k)
+        Ui[k] = IA[6 * k + off] * Sj.v[off] + IA[6 * k + off + 1] * Sj.v[off + 1] + IA[6 * k + off + 2] * Sj.v[off + 2];
       Vec6<S> U;
       for (int k = 0; k < 6; ++k) U.v[k] = Ui[k];
       const S d = dot(Sj, U);

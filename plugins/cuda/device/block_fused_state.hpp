@@ -31,10 +31,15 @@ RBDGRAD_HD bool block_kernel_supports(const BatchPointers<S>& b) {
          b.minv == nullptr && b.qd != nullptr && b.u != nullptr;
 }
 
-// The articulated-body pass gives qdd from tau in f32 (fd_derivatives says why).
+// Whether S takes the f32 algorithms (qdd from tau by the articulated-body pass, as
+// fd_derivatives says why) or the f64 ones (qdd through M^-1): a trait, so that a counting scalar
+// type (bench/plugins/cuda_flop_count.cpp) can stand in for either.
+template <class S>
+struct SinglePrecision : std::is_same<S, float> {};
+
 template <class S>
 constexpr RBDGRAD_HD bool block_uses_aba(bool tau_input) {
-  return std::is_same_v<S, float> && tau_input;
+  return SinglePrecision<S>::value && tau_input;
 }
 
 namespace block {
@@ -349,7 +354,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     }
   });
   g.sync();
-  if constexpr (std::is_same_v<S, float>) {
+  if constexpr (SinglePrecision<S>::value) {
     if (b.tau_input) block_articulated_body(m, w, fext != nullptr, g);
   }
 
@@ -383,7 +388,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
       inverse = result;
     }
   }
-  if constexpr (std::is_same_v<S, double>) {
+  if constexpr (!SinglePrecision<S>::value) {
     // f64: qdd = M^-1 (tau - c)
     if (b.tau_input) {
       g.for_each(n, [&](int i) {

@@ -58,7 +58,7 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
 
   KernelOptions options;
   options.block_max_states = 99;
-  options.mapped_io_max_states = 0;
+  options.mapped_io_max_kib = 0;
   ASSERT_TRUE(instance->set_kernel_options(options));
   OneBatch again(model.nv, 100, gradient);
   ASSERT_TRUE(instance->compute(&again.b));

@@ -1,0 +1,133 @@
+// Counts the arithmetic of the CUDA block kernel for one state: block_evaluate_state (the device
+// code, compiled as plain C++) runs on the host with a scalar type that counts every add,
+// multiply and divide, on the benchmark's workload (forward-dynamics gradient from tau, outputs
+// d qdd/d q and d qdd/d qd). With the bytes a state moves through device memory, that gives the
+// floor under the kernel's time at N states: max(FLOPs / peak FLOP/s, bytes / bandwidth).
+// Usage: cuda_flop_count [N [peak_f64_tflops peak_f32_tflops bandwidth_tb_s]]
+// (defaults: 65536 states; the H200 of docs/benchmarks/cuda.md: 132 SMs at 1.98 GHz with 64 FP64
+// and 128 FP32 FMA lanes each, 33.4 and 66.9 TFLOP/s; HBM3e 4.8 TB/s).
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "device/block_fused_state.hpp"
+#include "flat_model.hpp"
+#include "rbdgrad/embedded_robots.hpp"
+#include "rbdgrad/urdf.hpp"
+
+namespace counting {
+
+struct Counts {
+  std::uint64_t add = 0, mul = 0, div = 0, transcendental = 0;
+  std::uint64_t flops() const { return add + mul + div; }
+};
+inline Counts counts;
+
+// A number that counts the arithmetic done on it; kSingle picks the kernel's f32 algorithms.
+template <bool kSingle>
+struct Counted {
+  double v = 0;
+  Counted() = default;
+  explicit Counted(double x) : v(x) {}
+  explicit Counted(int x) : v(x) {}
+  Counted operator-() const { return Counted(-v); }
+  Counted& operator+=(Counted o) { ++counts.add; v += o.v; return *this; }
+  Counted& operator-=(Counted o) { ++counts.add; v -= o.v; return *this; }
+  Counted& operator*=(Counted o) { ++counts.mul; v *= o.v; return *this; }
+  Counted& operator/=(Counted o) { ++counts.div; v /= o.v; return *this; }
+  friend Counted operator+(Counted a, Counted b) { return a += b; }
+  friend Counted operator-(Counted a, Counted b) { return a -= b; }
+  friend Counted operator*(Counted a, Counted b) { return a *= b; }
+  friend Counted operator/(Counted a, Counted b) { return a /= b; }
+  friend bool operator==(Counted a, Counted b) { return a.v == b.v; }
+  friend bool operator!=(Counted a, Counted b) { return a.v != b.v; }
+  friend bool operator<(Counted a, Counted b) { return a.v < b.v; }
+  friend bool operator>(Counted a, Counted b) { return a.v > b.v; }
+  friend Counted sin(Counted a) { ++counts.transcendental; return Counted(std::sin(a.v)); }
+  friend Counted cos(Counted a) { ++counts.transcendental; return Counted(std::cos(a.v)); }
+};
+
+}  // namespace counting
+
+namespace rbdgrad::cuda {
+template <>
+struct SinglePrecision<counting::Counted<true>> : std::true_type {};
+}  // namespace rbdgrad::cuda
+
+namespace {
+
+// Arithmetic of one state of `robot` (averaged over a few random states, which differ only in
+// the finiteness checks).
+template <bool kSingle>
+counting::Counts count_state(const rbdgrad::Model& model) {
+  using S = counting::Counted<kSingle>;
+  const rbdgrad::cuda::FlatModel<S> flat(model);
+  const auto n = static_cast<std::size_t>(model.nv);
+  constexpr std::size_t kStates = 4;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  std::vector<S> q(kStates * n), qd(kStates * n), tau(kStates * n), dq(kStates * n * n), dqd(kStates * n * n);
+  for (auto* x : {&q, &qd, &tau})
+    for (S& e : *x) e = S(uniform(rng));
+  std::vector<std::uint32_t> status(kStates);
+  rbdgrad::cuda::BatchPointers<S> b;
+  b.n = kStates;
+  b.outputs = rbdgrad::cuda::kOutputDqddDq | rbdgrad::cuda::kOutputDqddDqd;
+  b.tau_input = true;
+  b.q = q.data();
+  b.qd = qd.data();
+  b.u = tau.data();
+  b.out[rbdgrad::cuda::output_index(rbdgrad::cuda::kOutputDqddDq)] = dq.data();
+  b.out[rbdgrad::cuda::output_index(rbdgrad::cuda::kOutputDqddDqd)] = dqd.data();
+  b.status = status.data();
+  const bool with_aba = rbdgrad::cuda::block_uses_aba<S>(true);
+  std::vector<S> shared(rbdgrad::cuda::BlockWorkspace<S>::scalars(model.nv, with_aba));
+  const rbdgrad::cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
+  counting::counts = {};
+  for (std::size_t k = 0; k < kStates; ++k)
+    rbdgrad::cuda::block_evaluate_state(flat.host_view(), w, b, k, true, rbdgrad::cuda::ThreadGroup{});
+  for (std::uint32_t s : status)
+    if (s != 0) std::fprintf(stderr, "warning: a state failed (status %u)\n", s);
+  counting::Counts per = counting::counts;
+  per.add /= kStates;
+  per.mul /= kStates;
+  per.div /= kStates;
+  per.transcendental /= kStates;
+  return per;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const double states = argc > 1 ? std::atof(argv[1]) : 65536;
+  const double peak_f64 = (argc > 2 ? std::atof(argv[2]) : 33.4) * 1e12;
+  const double peak_f32 = (argc > 3 ? std::atof(argv[3]) : 66.9) * 1e12;
+  const double bandwidth = (argc > 4 ? std::atof(argv[4]) : 4.8) * 1e12;
+  std::printf("| robot | precision | adds | multiplies | divides | sin/cos | FLOPs per state | bytes per state "
+              "| floor at N = %.0f (us) | bound by |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
+              states);
+  for (const char* robot : {"iiwa14", "talos_reduced"}) {
+    rbdgrad::Model model;
+    if (!rbdgrad::load_urdf_string(std::string(rbdgrad::embedded_robot_urdf(robot)), robot, model).is_ok()) return 1;
+    for (const bool single : {true, false}) {
+      const counting::Counts c = single ? count_state<true>(model) : count_state<false>(model);
+      const double scalar = single ? 4 : 8;
+      // device memory per state: q, qd, tau in; d qdd/d q, d qdd/d qd and the status out (the
+      // working set stays in shared memory, the robot's constants in cache)
+      const double bytes = (3.0 * model.nv + 2.0 * model.nv * model.nv) * scalar + 4;
+      const double compute_us = 1e6 * states * static_cast<double>(c.flops()) / (single ? peak_f32 : peak_f64);
+      const double memory_us = 1e6 * states * bytes / bandwidth;
+      std::printf("| %s | %s | %llu | %llu | %llu | %llu | %llu | %.0f | %.1f | %s |\n", robot, single ? "f32" : "f64",
+                  static_cast<unsigned long long>(c.add), static_cast<unsigned long long>(c.mul),
+                  static_cast<unsigned long long>(c.div), static_cast<unsigned long long>(c.transcendental),
+                  static_cast<unsigned long long>(c.flops()), bytes, compute_us > memory_us ? compute_us : memory_us,
+                  compute_us > memory_us ? "arithmetic" : "memory");
+    }
+  }
+  return 0;
+}
