@@ -212,7 +212,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     out_per_state[f] = (plugin::kMatrixOutputs & (1u << f)) ? nv * nv : nv;
   auto* h_in = h_in_.as<unsigned char>();
   auto* h_out = h_out_.as<unsigned char>();
-  // small batches: the kernel works on the pinned blocks themselves, no copies (one chunk)
+  // small batches (mapped_io_max_kib): the kernel works on the pinned blocks themselves, no
+  // copies, one chunk
   const bool mapped = in_layout.size() + out_layout.size() <= (kernel_.mapped_io_max_kib << 10);
   auto* d_in = static_cast<unsigned char*>(mapped ? h_in_.device_address() : d_in_.data());
   auto* d_out = static_cast<unsigned char*>(mapped ? h_out_.device_address() : d_out_.data());

@@ -86,9 +86,10 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     std::uint64_t workspace_mib = cuda::kDefaultWorkspaceBytes >> 20;
     if (Status s = option_uint(options, "workspace_mib", 1, kMaxWorkspaceMib, workspace_mib); !s) return s;
     cuda::KernelOptions kernel;
-    std::uint64_t block_max = kernel.block_max_states, tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state),
-                  spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block),
-                  mapped_max = kernel.mapped_io_max_kib;
+    std::uint64_t block_max = kernel.block_max_states;
+    std::uint64_t tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state);
+    std::uint64_t spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block);
+    std::uint64_t mapped_max = kernel.mapped_io_max_kib;
     if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
     if (Status s = option_uint(options, "threads_per_state", 0, 1024, tps); !s) return s;
     if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;

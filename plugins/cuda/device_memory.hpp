@@ -1,7 +1,8 @@
 // Owned CUDA allocations: device memory and pinned (page-locked) host memory, which asynchronous
 // copies need and which is also mapped into the device's address space (a kernel can read and
-// write it over PCIe without a copy: the small-batch path). Both grow by size class (powers of two), so that a stream of batches of similar
-// sizes allocates a few times at most and never on the steady path.
+// write it over PCIe without a copy: the small-batch path). Both grow by size class (powers of
+// two), so that a stream of batches of similar sizes allocates a few times at most and never on
+// the steady path.
 #pragma once
 
 #include <cstddef>

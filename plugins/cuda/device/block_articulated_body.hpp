@@ -127,8 +127,8 @@ RBDGRAD_HD void block_articulated_body(const ModelView<S>& m, const BlockWorkspa
           // shift_force(pa, dist), component r: [n + f x d; f]
           const int r = e - 36;
           const S* pa = up + 36;
-          w.pA[6 * par + r] += r < 3 ? pa[r] + (pa[3 + (r + 1) % 3] * dist[(r + 2) % 3] - pa[3 + (r + 2) % 3] * dist[(r + 1) % 3])
-                                     : pa[r];
+          const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+          w.pA[6 * par + r] += r < 3 ? pa[r] + (pa[3 + r1] * dist[r2] - pa[3 + r2] * dist[r1]) : pa[r];
         }
       }
     });

@@ -1,11 +1,12 @@
 // One state of a batch on a group of threads: the forward-dynamics gradient refactored for the GPU
-// as paper 000's Algorithm 4 asks. The per-body work of each pass runs in parallel; the recursions
-// over the tree become sums over a joint's ancestors (world-frame velocities and accelerations
-// are prefix sums of per-joint terms; a scan of the joints before it with the ancestor test, whose
-// loads do not wait on each other as a walk up the parent chain does) or over its subtree (a contiguous index range in
-// depth-first order), so they need no serial loop over the bodies either; the columns of dc'/du
-// and of M^-1 are found in parallel. Only the inversion of M (one exchange step per joint) and,
-// in f32, the articulated-body pass (one step per tree level) are serial. The working set stays in shared memory.
+// as paper 000's Algorithm 4 asks. The per-body work of each pass runs in parallel, entry by entry.
+// The recursions over the tree become sums over a joint's ancestors (world-frame velocities and
+// accelerations are prefix sums of per-joint terms, found by scanning the joints before it with
+// the ancestor test, whose loads do not wait on each other as a walk up the parent chain does) or
+// over its subtree (a contiguous index range in depth-first order). The columns of dc'/du and of
+// M^-1 are found in parallel. Only the inversion of M (one exchange step per joint) and, in f32,
+// the articulated-body pass (one step per tree level) are serial. The working set stays in shared
+// memory.
 //
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
 // checks, so that both kernels fail a state for the same reason and agree to rounding. It covers
@@ -186,9 +187,10 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     const S* p = w.p + 3 * i;
     if (e < 6) {
       // revolute: [z; p x z], prismatic: [0; z], z = R e_z
+      auto z = [&](int r) { return R[3 * r + 2]; };
       S x;
-      if (!m.prismatic[i]) x = e < 3 ? R[3 * e + 2] : p[(e + 1) % 3] * R[3 * ((e + 2) % 3) + 2] - p[(e + 2) % 3] * R[3 * ((e + 1) % 3) + 2];
-      else x = e < 3 ? S(0) : R[3 * (e - 3) + 2];
+      if (!m.prismatic[i]) x = e < 3 ? z(e) : p[(e + 1) % 3] * z((e + 2) % 3) - p[(e + 2) % 3] * z((e + 1) % 3);
+      else x = e < 3 ? S(0) : z(e - 3);
       w.axis[6 * i + e] = x;
     } else if (e < 9) {
       const int r = e - 6;
@@ -209,7 +211,8 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
       const S* fl = fext + 6 * i;
       auto rotated = [&](int row, const S* x) {
         S Rl[3];
-        for (int b2 = 0; b2 < 3; ++b2) Rl[b2] = R[3 * row] * lr[b2] + R[3 * row + 1] * lr[3 + b2] + R[3 * row + 2] * lr[6 + b2];
+        for (int b2 = 0; b2 < 3; ++b2)
+          Rl[b2] = R[3 * row] * lr[b2] + R[3 * row + 1] * lr[3 + b2] + R[3 * row + 2] * lr[6 + b2];
         return Rl[0] * x[0] + Rl[1] * x[1] + Rl[2] * x[2];
       };
       S x;
@@ -236,8 +239,9 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
     S value;
     if (r < 3 && k < 3) {
-      const S mcxcx = block::skew_at(mc, r, 0) * block::skew_at(c, 0, k) + block::skew_at(mc, r, 1) * block::skew_at(c, 1, k) +
-                      block::skew_at(mc, r, 2) * block::skew_at(c, 2, k);
+      using block::skew_at;
+      const S mcxcx = skew_at(mc, r, 0) * skew_at(c, 0, k) + skew_at(mc, r, 1) * skew_at(c, 1, k) +
+                      skew_at(mc, r, 2) * skew_at(c, 2, k);
       value = Icw[9 * i + 3 * r + k] - mcxcx;
     } else if (r < 3) {
       value = block::skew_at(mc, r, k - 3);

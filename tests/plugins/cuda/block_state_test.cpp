@@ -110,7 +110,8 @@ TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
   const cuda::BatchPointers<double> b = a.pointers(c, true);
   for (std::size_t k = 0; k < 2; ++k) {
     EXPECT_EQ(cuda::status_reason(status[k]), cuda::Reason::kMassNotPositive) << "state " << k;
-    EXPECT_EQ(status[k], cuda::evaluate_state(flat.host_view(), ws, b, k)) << "state " << k << ": the one-thread kernel's status";
+    EXPECT_EQ(status[k], cuda::evaluate_state(flat.host_view(), ws, b, k))
+        << "state " << k << ": the one-thread kernel's status";
   }
 }
 
