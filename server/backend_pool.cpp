@@ -61,7 +61,8 @@ BackendPool::~BackendPool() = default;
 
 std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const ModelRegistry& models) {
   std::unique_ptr<BackendPool> pool(new BackendPool());
-  const auto load = [&](const std::string& path, const std::map<std::string, std::string>& plugin_options) {
+  const auto load = [&](const std::string& path, const std::map<std::string, std::string>& plugin_options,
+                        std::int64_t instances) {
     if (Status s = pool->registry_.add(path); !s) {
       BackendState state;
       state.name = backend_name_from_path(path);
@@ -70,11 +71,12 @@ std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const M
       pool->states_.push_back(std::move(state));
       return;
     }
-    pool->add_backend(*pool->registry_.available().back(), plugin_options, options, models);
+    const std::size_t per_model = instances > 0 ? static_cast<std::size_t>(instances) : options.instances_per_model;
+    pool->add_backend(*pool->registry_.available().back(), plugin_options, options, models, per_model);
   };
-  for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.options);
+  for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.options, plugin.instances);
   // the built-in CPU backend, unless the configuration brought its own
-  if (!options.cpu_plugin_path.empty() && pool->find("cpu") == nullptr) load(options.cpu_plugin_path, {});
+  if (!options.cpu_plugin_path.empty() && pool->find("cpu") == nullptr) load(options.cpu_plugin_path, {}, 0);
   for (const std::string& path : options.optional_plugin_paths) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) continue;
@@ -82,18 +84,18 @@ std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const M
     const std::string name = backend_name_from_path(path);
     const auto& states = pool->states_;
     if (std::any_of(states.begin(), states.end(), [&](const BackendState& s) { return s.name == name; })) continue;
-    load(path, {});
+    load(path, {}, 0);
   }
   return pool;
 }
 
 void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
-                              const Options& options, const ModelRegistry& models) {
+                              const Options& options, const ModelRegistry& models, std::size_t instances_per_model) {
   BackendState state;
   state.name = plugin.info().name;
   state.path = plugin.path();
   state.info = plugin.info();
-  state.instances_per_model = std::max<std::size_t>(options.instances_per_model, 1);
+  state.instances_per_model = std::max<std::size_t>(instances_per_model, 1);
 
   std::map<std::string, std::string> instance_options = configured_options;
   // `workers` sizes the CPU backend unless its own options already do

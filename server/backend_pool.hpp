@@ -67,8 +67,9 @@ class BackendPool {
     // Threads of each CPU instance (the plugin's "threads" option) unless the CPU plugin's own
     // options set "threads". 0 = std::thread::hardware_concurrency().
     std::int64_t workers = 0;
-    // Instances per (model, backend): how many requests for one model run at once on a backend.
-    // Default 1: a CPU instance already spreads one batch over `workers` threads.
+    // Instances per (model, backend): how many requests for one model run at once on a backend,
+    // unless its plugin entry sets `instances`. Default 1: a CPU instance already spreads one
+    // batch over `workers` threads.
     std::size_t instances_per_model = 1;
     InstancePool::Options pool;
   };
@@ -106,8 +107,9 @@ class BackendPool {
   };
 
   BackendPool() = default;
+  // instances_per_model: the plugin entry's `instances`, else Options::instances_per_model
   void add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
-                   const Options& options, const ModelRegistry& models);
+                   const Options& options, const ModelRegistry& models, std::size_t instances_per_model);
   const Backend* find(std::string_view name) const noexcept;
   Status unavailable_backend(std::string_view name) const;
 

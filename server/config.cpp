@@ -163,7 +163,7 @@ class Parser {
       const std::string key = "plugins[" + std::to_string(i) + "]";
       const YAML::Node p = node[i];
       if (Status s = require_map(key, p); !s) return s;
-      if (Status s = check_keys(key, p, {"path", "options"}); !s) return s;
+      if (Status s = check_keys(key, p, {"path", "options", "instances"}); !s) return s;
       PluginConfig plugin;
       if (!p["path"]) return error_at(key, p, "a plugin needs a 'path'");
       if (Status s = get_string(key + ".path", p["path"], plugin.path); !s) return s;
@@ -177,6 +177,9 @@ class Parser {
           if (Status s = get_string(key + ".options." + k, kv.second, v); !s) return s;
           plugin.options[k] = v;
         }
+      }
+      if (p["instances"]) {
+        if (Status s = get_int(key + ".instances", p["instances"], 1, 64, plugin.instances); !s) return s;
       }
       out.push_back(std::move(plugin));
     }
@@ -373,6 +376,7 @@ std::string describe(const ServerConfig& cfg) {
   for (const PluginConfig& p : cfg.plugins) {
     os << "  " << p.path;
     for (const auto& [k, v] : p.options) os << " " << k << "=" << v;
+    if (p.instances > 0) os << ", " << p.instances << " instances per model";
     os << "\n";
   }
   os << "workers: ";

@@ -48,6 +48,10 @@ struct PluginConfig {
   std::string path;
   // Options handed to the plugin at initialisation, uninterpreted here. Default empty.
   std::map<std::string, std::string> options;
+  // Instances of this backend per served model: how many requests for one model it runs at once
+  // (a CUDA instance has its own streams and buffers, so requests on different instances overlap
+  // on the GPU). Range [1, 64]; 0 (not set) = 1.
+  std::int64_t instances = 0;
 
   bool operator==(const PluginConfig&) const = default;
 };

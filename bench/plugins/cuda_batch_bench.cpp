@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <mutex>
 #include <memory>
 #include <random>
 #include <string>
@@ -92,12 +93,14 @@ struct Batch {
 
 // One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy
   std::string unavailable;
+  std::mutex mutex;  // benchmark threads create their own instances
 
-  rbdgrad::cuda::CudaInstance* instance(const std::string& robot) {
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0) {
+    std::lock_guard<std::mutex> lock(mutex);
     if (!unavailable.empty()) return nullptr;
-    auto& slot = instances[robot];
+    auto& slot = instances[robot + "#" + std::to_string(copy)];
     if (!slot) {
       if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
@@ -135,10 +138,12 @@ Kernel block_kernel(int threads_per_state, int states_per_block) {
   return k;
 }
 
+// Each benchmark thread (cuda_concurrent) runs its own instance, as the daemon's instance pool
+// does with a plugin entry's `instances`.
 template <class S>
 void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel,
               bool pinned_memory) {
-  rbdgrad::cuda::CudaInstance* instance = backend().instance(robot);
+  rbdgrad::cuda::CudaInstance* instance = backend().instance(robot, state.thread_index());
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
     return;
@@ -201,6 +206,17 @@ const bool registered = [] {
           add<float>("cuda_e2e", robot, n, kernel, pinned_memory);
           add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
         }
+      }
+  // cuda_concurrent: 1, 2 and 4 instances computing at once (states_per_s is their sum)
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (std::size_t n : {16, 256})
+      for (const int threads : {1, 2, 4}) {
+        const std::string name = "cuda_concurrent/" + std::to_string(threads) + "_instances/f64/" + robot + "/N" +
+                                 std::to_string(n);
+        benchmark::RegisterBenchmark(name.c_str(), cuda_e2e<double>, robot, n, RBDGRAD_PRECISION_F64,
+                                     block_kernel(true), true)
+            ->Unit(benchmark::kMicrosecond)->UseRealTime()->Threads(threads)->Repetitions(5)
+            ->ReportAggregatesOnly(true);
       }
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})

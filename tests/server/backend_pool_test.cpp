@@ -66,6 +66,20 @@ TEST_F(BackendPoolTest, LoadsTheConfiguredPluginsAndTheCpuBackendRecordingFailur
   EXPECT_THAT(fpga->reason, StartsWith(std::string("plugin ") + kMissingFpga + ": cannot load"));
 }
 
+TEST_F(BackendPoolTest, APluginEntrySetsItsInstancesPerModel) {
+  PluginConfig cuda{FAKE_CUDA_PATH, {}};
+  cuda.instances = 3;
+  auto pool = make({cuda});
+  const BackendState* fake = state(*pool, "cuda");
+  ASSERT_NE(fake, nullptr);
+  ASSERT_TRUE(fake->ready) << fake->reason;
+  EXPECT_EQ(fake->instances_per_model, 3u);
+  EXPECT_EQ(state(*pool, "cpu")->instances_per_model, 1u) << "the others keep the default";
+  Route route;
+  ASSERT_TRUE(pool->route(*models_.find("iiwa14"), "cuda", RBDGRAD_PRECISION_F64, route).is_ok());
+  EXPECT_EQ(route.pool->size(), 3u);
+}
+
 TEST_F(BackendPoolTest, RoutesAutoToCpuAndResolvesAutoPrecisionToF64) {
   auto pool = make({{FAKE_CUDA_PATH, {}}});
   Route route;

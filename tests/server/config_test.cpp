@@ -105,6 +105,23 @@ TEST(ServerConfigTest, OverridesPlugins) {
   EXPECT_EQ(cfg.plugins[0].path, "/opt/rbdgrad/libcuda_backend.so");
   EXPECT_EQ(cfg.plugins[0].options.at("device"), "1");
   EXPECT_EQ(cfg.plugins[0].options.at("streams"), "4");
+  EXPECT_EQ(cfg.plugins[0].instances, 0) << "not set";
+}
+
+TEST(ServerConfigTest, PluginInstancesPerModel) {
+  ServerConfig cfg;
+  Status s = parse_config(
+      "plugins:\n"
+      "  - path: /opt/rbdgrad/librbdgrad_cuda.so\n"
+      "    instances: 4\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_EQ(cfg.plugins[0].instances, 4);
+  for (const char* bad : {"0", "65", "-1", "two"}) {
+    s = parse_config(std::string("plugins:\n  - path: /p.so\n    instances: ") + bad + "\n", "t", cfg);
+    ASSERT_FALSE(s.is_ok()) << bad;
+    EXPECT_NE(s.message().find("plugins[0].instances"), std::string::npos) << s.message();
+  }
 }
 
 TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
