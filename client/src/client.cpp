@@ -133,11 +133,11 @@ void Client::compute_async(const ComputeRequest& req, ComputeCallback done) cons
     // The call's own objects go before the caller hears of the answer: its ClientContext holds a
     // reference to the channel, whose last reference must not be dropped on this gRPC thread
     // (~Impl waits for this).
-    ComputeResult result = std::move(owned->result);
-    Client::ComputeCallback done = std::move(owned->done);
+    ComputeResult answer = std::move(owned->result);
+    Client::ComputeCallback callback = std::move(owned->done);
     owned.reset();
     impl->async_finished();
-    done(std::move(st), std::move(result));
+    callback(std::move(st), std::move(answer));
   });
 }
 

@@ -112,12 +112,12 @@ RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
 
 }  // namespace block
 
-// Computes state k of b (block_kernel_supports(b)) with the group's threads and writes its outputs
-// and status; an inactive group (past the end of the batch) runs on state k for the syncs' sake
-// and writes nothing.
+// Computes `state` of b (block_kernel_supports(b)) with the group's threads and writes its outputs
+// and status; an inactive group (past the end of the batch) runs on `state` for the syncs' sake and
+// writes nothing.
 template <class S>
 RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
-                                     std::uint64_t k, bool active, const ThreadGroup& g) {
+                                     std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
   using block::cross_force_at;
   using block::cross_motion_at;
@@ -126,17 +126,17 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   using block::row_dot;
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
-  const S* fext = b.fext ? b.fext + k * 6 * vec : nullptr;
+  const S* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
   const block::Divider by_n(n);
 
   if (g.rank == 0) *w.status = *w.not_finite = 0;
   // the inputs (read once: they may be host memory, over PCIe), and the joint transforms in the
   // parent frames
   g.for_each(n, [&](int i) {
-    const S qi = b.q[k * vec + i];
+    const S qi = b.q[state * vec + i];
     w.q[i] = qi;
-    w.qd[i] = b.qd[k * vec + i];
-    w.u[i] = b.u[k * vec + i];
+    w.qd[i] = b.qd[state * vec + i];
+    w.u[i] = b.u[state * vec + i];
     if (!b.tau_input) w.qdd[i] = w.u[i];
     const S* R0 = m.joint_rotation + 9 * i;
     S* Rl = w.R_local + 9 * i;
@@ -460,7 +460,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     if (t < n) {
       x = w.qdd[t];
       out = out_qdd;
-      at = k * vec + t;
+      at = state * vec + t;
     } else if (t < n + 2 * n * n) {
       const int e = t < n + n * n ? t - n : t - n - n * n, i = by_n.quotient(e), j = e - i * n;
       const S* dtau = t < n + n * n ? w.dtau_dq : w.dtau_dqd;
@@ -468,12 +468,12 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
       for (int r = 0; r < n; ++r) s += inverse[i * n + r] * dtau[r * n + j];
       x = -s;
       out = t < n + n * n ? out_dq : out_dqd;
-      at = k * mat + e;
+      at = state * mat + e;
     } else {
       const int e = t - n - 2 * n * n;
       x = inverse[e];
       out = out_minv;
-      at = k * mat + e;
+      at = state * mat + e;
     }
     if (!is_finite(x)) *w.not_finite = 1;
     if (out) out[at] = x;
@@ -482,7 +482,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   if (g.rank == 0 && active) {
     std::uint32_t s = *w.status;
     if (s == 0 && *w.not_finite) s = not_finite<S>(Algorithm::kFdDerivatives);
-    b.status[k] = s;
+    b.status[state] = s;
   }
 }
 
