@@ -421,7 +421,77 @@ TEST_F(FixedPointTest, OtherFormats) {
   EXPECT_EQ(FixedPointStatus::count(), 1u);
 }
 
+// Formats wider than 32 bits (the FPGA kernel's wider datapaths): int64 storage, exact 128-bit
+// intermediates, the same rounding and saturation rules.
+TEST_F(FixedPointTest, WideFormats) {
+  using Q24_24 = Fixed<48, 24>;
+  static_assert(sizeof(Q24_24) == 8);
+  static_assert(Q24_24::raw_max == (std::int64_t{1} << 47) - 1);
+  const double lsb = 1.0 / 16777216.0;
+  EXPECT_EQ(Q24_24(1.0).raw(), 1 << 24);
+  EXPECT_EQ(Q24_24(1.4 * lsb).raw(), 1);
+  EXPECT_EQ(Q24_24(-1.5 * lsb).raw(), -2);  // ties away from zero
+  EXPECT_EQ((Q24_24(1.5) * Q24_24(-1.25)), -1.875);
+  EXPECT_EQ((Q24_24(1) / Q24_24(3)).raw(), 5592405);  // 5592405.33
+  EXPECT_EQ((Q24_24(-2) / Q24_24(3)).raw(), -11184811);  // -11184810.67
+  EXPECT_LE(std::abs(sqrt(Q24_24(2)).to_double() - std::sqrt(2.0)), 0.5 * lsb);
+  // products of large values need more than 64 bits before rounding
+  EXPECT_EQ((Q24_24(4000000.0) * Q24_24(2.0)).to_double(), 8000000.0);
+  EXPECT_EQ((Q24_24(-8388607.5) / Q24_24(-1.0)).to_double(), 8388607.5);
+  EXPECT_FALSE(FixedPointStatus::overflowed());
+  // range [-2^23, 2^23): saturation with the flag on every operation
+  EXPECT_EQ(Q24_24(8388608.0).raw(), Q24_24::raw_max);
+  EXPECT_EQ((Q24_24(8000000) + Q24_24(800000)).raw(), Q24_24::raw_max);
+  EXPECT_EQ((Q24_24(-4000000) * Q24_24(4)).raw(), Q24_24::raw_min);
+  EXPECT_EQ((Q24_24(1) / Q24_24(0)).raw(), Q24_24::raw_max);
+  EXPECT_EQ(FixedPointStatus::count(), 4u);
+
+  FixedPointStatus::clear();
+  using Q32_32 = Fixed<64, 32>;
+  static_assert(sizeof(Q32_32) == 8);
+  static_assert(Q32_32::raw_max == std::numeric_limits<std::int64_t>::max());
+  static_assert(Q32_32::raw_min == std::numeric_limits<std::int64_t>::min());
+  EXPECT_EQ(Q32_32(-2147483648.0).raw(), Q32_32::raw_min);  // the lowest value fits exactly
+  EXPECT_EQ((Q32_32(3.0) * Q32_32(-0.5)), -1.5);
+  EXPECT_EQ((Q32_32(1) / Q32_32(3)).raw(), 1431655765);  // 2^32 / 3 = 1431655765.33
+  EXPECT_LE(std::abs(sqrt(Q32_32(2)).to_double() - std::sqrt(2.0)), 1e-9);
+  // the widest intermediate: raw_max << 32 needs 95 bits
+  EXPECT_NEAR(sqrt(std::numeric_limits<Q32_32>::max()).to_double(), std::sqrt(2147483648.0), 1e-9);
+  EXPECT_FALSE(FixedPointStatus::overflowed());
+  EXPECT_EQ(Q32_32(2147483648.0).raw(), Q32_32::raw_max);
+  EXPECT_EQ((-std::numeric_limits<Q32_32>::lowest()).raw(), Q32_32::raw_max);
+  EXPECT_EQ((Q32_32(2147483647.0) + Q32_32(1.0)).raw(), Q32_32::raw_max);
+  EXPECT_EQ((Q32_32(-100000.0) * Q32_32(100000.0)).raw(), Q32_32::raw_min);
+  EXPECT_EQ(Q32_32(std::int64_t{1} << 40).raw(), Q32_32::raw_max);
+  EXPECT_EQ(FixedPointStatus::count(), 5u);
+
+  // random operands: within half an LSB of the exact result (plus double's own rounding)
+  FixedPointStatus::clear();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-2000.0, 2000.0);
+  for (int k = 0; k < 2000; ++k) {
+    const Q24_24 a = u(rng), b = u(rng);
+    const double x = a.to_double(), y = b.to_double();
+    ASSERT_LE(std::abs((a * b).to_double() - x * y), 0.5 * lsb + std::abs(x * y) * 0x1p-52) << x << " * " << y;
+    ASSERT_LE(std::abs((a / b).to_double() - x / y), 0.5 * lsb + std::abs(x / y) * 0x1p-52) << x << " / " << y;
+    ASSERT_EQ((a + b).to_double(), x + y);
+  }
+  EXPECT_FALSE(FixedPointStatus::overflowed());
+  EXPECT_STREQ((rbdgrad::scalar_name<Q24_24>()), "fixed<48,24>");
+}
+
 TEST_F(FixedPointTest, ConversionBetweenFormats) {
+  // into and out of a wide format
+  using Q24_24 = Fixed<48, 24>;
+  EXPECT_EQ(Q24_24(Q16_16(-3.25)), -3.25);
+  EXPECT_EQ(Q16_16(Q24_24::from_raw(384)).raw(), 2);  // 1.5 LSB of Q16.16 rounds away from zero
+  EXPECT_EQ(Q24_24(Fixed<64, 32>(1000000.5)), 1000000.5);
+  EXPECT_FALSE(FixedPointStatus::overflowed());
+  EXPECT_EQ(Q16_16(Q24_24(40000)).raw(), INT32_MAX);
+  EXPECT_EQ(Q24_24(Fixed<64, 32>(1e9)).raw(), Q24_24::raw_max);
+  EXPECT_EQ(FixedPointStatus::count(), 2u);
+  FixedPointStatus::clear();
+
   using Q12_20 = Fixed<32, 20>;
   const Q16_16 a = Q16_16(Q12_20::from_raw(24));  // 1.5 LSB of Q16.16
   EXPECT_EQ(a.raw(), 2);

@@ -5,8 +5,10 @@
 //   using rbdgrad::Q16_16 = Fixed<32, 16>;
 //
 //   A Fixed stores round(x * 2^FracBits) in the smallest signed integer that
-//   holds TotalBits (int8_t / int16_t / int32_t).  It is a drop-in Scalar for
-//   Eigen matrices and for the templated dynamics algorithms.
+//   holds TotalBits (int8_t / int16_t / int32_t / int64_t; TotalBits <= 64).
+//   It is a drop-in Scalar for Eigen matrices and for the templated dynamics
+//   algorithms.  Intermediate results (sums, full products) are exact in a
+//   wider integer: int64_t up to 32 bits, the compiler's 128-bit integer above.
 //
 // Arithmetic semantics (equivalent to HLS ap_fixed<T, T-F, AP_RND_INF, AP_SAT>)
 //   * Rounding: to nearest, ties away from zero, on every conversion,
@@ -66,25 +68,37 @@ inline thread_local std::uint64_t fixed_overflow_count = 0;
 // expression non-constant, turning a compile-time overflow into an error.
 inline void record_fixed_overflow() noexcept { ++fixed_overflow_count; }
 
+// 128-bit integers (a GCC and Clang extension; __extension__ keeps -Wpedantic quiet): the exact
+// intermediates of formats wider than 32 bits.
+__extension__ typedef __int128 int128;
+__extension__ typedef unsigned __int128 uint128;
+
 // Smallest standard signed integer with at least `Bits` bits.
 template <int Bits>
-using fixed_storage_t =
-    std::conditional_t<(Bits <= 8), std::int8_t,
-                       std::conditional_t<(Bits <= 16), std::int16_t, std::int32_t>>;
+using fixed_storage_t = std::conditional_t<
+    (Bits <= 8), std::int8_t,
+    std::conditional_t<(Bits <= 16), std::int16_t, std::conditional_t<(Bits <= 32), std::int32_t, std::int64_t>>>;
+
+// Signed integer that holds the sum and the full product of two `Bits`-bit values exactly.
+template <int Bits>
+using fixed_wide_t = std::conditional_t<(Bits <= 32), std::int64_t, int128>;
 
 // Divide by 2^shift, rounding to nearest with ties away from zero.  Works on
 // the magnitude so negative values round symmetrically (a plain arithmetic
 // shift would round -0.5 towards +inf).
-constexpr std::int64_t round_shift_right(std::int64_t v, int shift) noexcept {
+template <class W>
+constexpr W round_shift_right(W v, int shift) noexcept {
   if (shift <= 0) return v;
-  const std::int64_t half = std::int64_t{1} << (shift - 1);
+  const W half = W{1} << (shift - 1);
   return v >= 0 ? (v + half) >> shift : -((-v + half) >> shift);
 }
 
 // floor(sqrt(n)), bit by bit: exact and constexpr, as an FPGA core would do.
-constexpr std::uint64_t isqrt_u64(std::uint64_t n) noexcept {
-  std::uint64_t res = 0;
-  std::uint64_t bit = std::uint64_t{1} << 62;
+// U is std::uint64_t or uint128.
+template <class U>
+constexpr U isqrt(U n) noexcept {
+  U res = 0;
+  U bit = U{1} << (8 * sizeof(U) - 2);
   while (bit > n) bit >>= 2;
   while (bit != 0) {
     if (n >= res + bit) {
@@ -121,19 +135,22 @@ class FixedOverflowScope {
 
 template <int TotalBits = 32, int FracBits = 16>
 class Fixed {
-  static_assert(1 <= FracBits && FracBits < TotalBits && TotalBits <= 32,
-                "Fixed<TotalBits, FracBits> requires 1 <= FracBits < TotalBits <= 32");
+  static_assert(1 <= FracBits && FracBits < TotalBits && TotalBits <= 64,
+                "Fixed<TotalBits, FracBits> requires 1 <= FracBits < TotalBits <= 64");
 
  public:
   using storage_type = detail::fixed_storage_t<TotalBits>;
+  // exact sums and products before rounding and saturation
+  using wide_type = detail::fixed_wide_t<TotalBits>;
 
   static constexpr int total_bits = TotalBits;
   static constexpr int frac_bits = FracBits;
   static constexpr int int_bits = TotalBits - FracBits;  // including the sign bit
   // Bounds of the TotalBits-wide two's-complement range (may be narrower than
   // storage_type, e.g. Fixed<24,12> stored in int32_t).
-  static constexpr std::int64_t raw_max = (std::int64_t{1} << (TotalBits - 1)) - 1;
-  static constexpr std::int64_t raw_min = -(std::int64_t{1} << (TotalBits - 1));
+  static constexpr std::int64_t raw_max =
+      TotalBits == 64 ? std::numeric_limits<std::int64_t>::max() : (std::int64_t{1} << (TotalBits - 1)) - 1;
+  static constexpr std::int64_t raw_min = -raw_max - 1;
 
   constexpr Fixed() noexcept = default;
 
@@ -150,25 +167,23 @@ class Fixed {
   template <int T2, int F2>
     requires(T2 != TotalBits || F2 != FracBits)
   explicit constexpr Fixed(Fixed<T2, F2> other) noexcept {
-    std::int64_t r = other.raw();
+    using W = detail::fixed_wide_t<(TotalBits > T2 ? TotalBits : T2)>;
+    W r = other.raw();
     if constexpr (F2 > FracBits) {
       r = detail::round_shift_right(r, F2 - FracBits);
     } else {
-      r *= std::int64_t{1} << (FracBits - F2);  // |r| <= 2^62, no overflow
+      r *= W{1} << (FracBits - F2);  // |r| < 2^(T2 - 1 + FracBits - F2): fits W
     }
-    v_ = saturate_raw(r);
+    v_ = saturate_wide(r);
   }
 
   // Bit-exact construction from the integer representation (saturating).
-  static constexpr Fixed from_raw(std::int64_t raw) noexcept {
-    Fixed f;
-    f.v_ = saturate_raw(raw);
-    return f;
-  }
+  static constexpr Fixed from_raw(std::int64_t raw) noexcept { return from_wide(raw); }
 
   constexpr storage_type raw() const noexcept { return v_; }
 
-  // Exact: every value with <= 32 significant bits is representable in double.
+  // Exact up to 53 significant bits (every format of up to 53 bits); wider values round to
+  // the nearest double.
   constexpr double to_double() const noexcept { return static_cast<double>(v_) * kInvScale; }
 
   template <std::floating_point D>
@@ -178,20 +193,16 @@ class Fixed {
 
   // ---- arithmetic ---------------------------------------------------------
   constexpr Fixed operator+() const noexcept { return *this; }
-  constexpr Fixed operator-() const noexcept { return from_raw(-std::int64_t{v_}); }
+  constexpr Fixed operator-() const noexcept { return from_wide(-wide_type{v_}); }
 
-  friend constexpr Fixed operator+(Fixed a, Fixed b) noexcept {
-    return from_raw(std::int64_t{a.v_} + std::int64_t{b.v_});
-  }
-  friend constexpr Fixed operator-(Fixed a, Fixed b) noexcept {
-    return from_raw(std::int64_t{a.v_} - std::int64_t{b.v_});
-  }
-  // Full 64-bit product (|p| <= 2^62), rounded back to FracBits.
+  friend constexpr Fixed operator+(Fixed a, Fixed b) noexcept { return from_wide(wide_type{a.v_} + wide_type{b.v_}); }
+  friend constexpr Fixed operator-(Fixed a, Fixed b) noexcept { return from_wide(wide_type{a.v_} - wide_type{b.v_}); }
+  // Full product (|p| <= 2^(2 TotalBits - 2): fits wide_type), rounded back to FracBits.
   friend constexpr Fixed operator*(Fixed a, Fixed b) noexcept {
-    const std::int64_t p = std::int64_t{a.v_} * std::int64_t{b.v_};
-    return from_raw(detail::round_shift_right(p, FracBits));
+    const wide_type p = wide_type{a.v_} * wide_type{b.v_};
+    return from_wide(detail::round_shift_right(p, FracBits));
   }
-  // (a << FracBits) / b in 64 bits, rounded to nearest (ties away from zero).
+  // (a << FracBits) / b in wide_type, rounded to nearest (ties away from zero).
   friend constexpr Fixed operator/(Fixed a, Fixed b) noexcept {
     if (b.v_ == 0) {
       detail::record_fixed_overflow();
@@ -199,14 +210,14 @@ class Fixed {
       if (a.v_ < 0) return from_raw(raw_min);
       return Fixed{};
     }
-    const std::int64_t num = std::int64_t{a.v_} * (std::int64_t{1} << FracBits);
-    const std::int64_t den = b.v_;
-    std::int64_t q = num / den;
-    const std::int64_t r = num % den;
-    const std::int64_t abs_r = r < 0 ? -r : r;
-    const std::int64_t abs_d = den < 0 ? -den : den;
+    const wide_type num = wide_type{a.v_} * (wide_type{1} << FracBits);
+    const wide_type den = b.v_;
+    wide_type q = num / den;
+    const wide_type r = num % den;
+    const wide_type abs_r = r < 0 ? -r : r;
+    const wide_type abs_d = den < 0 ? -den : den;
     if (2 * abs_r >= abs_d) q += ((num < 0) != (den < 0)) ? -1 : 1;
-    return from_raw(q);
+    return from_wide(q);
   }
 
   constexpr Fixed& operator+=(Fixed o) noexcept { return *this = *this + o; }
@@ -241,10 +252,11 @@ class Fixed {
       detail::record_fixed_overflow();
       return Fixed{};
     }
-    const auto n = static_cast<std::uint64_t>(x.v_) << FracBits;  // < 2^62
-    std::uint64_t r = detail::isqrt_u64(n);
+    using U = std::conditional_t<(TotalBits <= 32), std::uint64_t, detail::uint128>;
+    const U n = static_cast<U>(x.v_) << FracBits;  // < 2^(TotalBits - 1 + FracBits)
+    U r = detail::isqrt(n);
     if (n - r * r > r) ++r;  // n > (r + 1/2)^2  <=>  n - r^2 > r for integers
-    return from_raw(static_cast<std::int64_t>(r));
+    return from_wide(static_cast<wide_type>(r));
   }
   // Through double: the FPGA host precomputes sin/cos, the kernel consumes them.
   friend Fixed sin(Fixed x) noexcept { return Fixed(std::sin(x.to_double())); }
@@ -266,16 +278,26 @@ class Fixed {
   static constexpr double kScale = static_cast<double>(std::int64_t{1} << FracBits);
   static constexpr double kInvScale = 1.0 / kScale;  // exact: power of two
 
-  static constexpr storage_type saturate_raw(std::int64_t r) noexcept {
-    if (r > raw_max) {
-      detail::record_fixed_overflow();
-      return static_cast<storage_type>(raw_max);
-    }
-    if (r < raw_min) {
-      detail::record_fixed_overflow();
-      return static_cast<storage_type>(raw_min);
-    }
+  // Clamps an exact intermediate to the format's range, recording an overflow when it must.
+  template <class W>
+  static constexpr storage_type saturate_wide(W r) noexcept {
+    if (r > W{raw_max}) return saturated_high();
+    if (r < W{raw_min}) return saturated_low();
     return static_cast<storage_type>(r);
+  }
+  template <class W>
+  static constexpr Fixed from_wide(W r) noexcept {
+    Fixed f;
+    f.v_ = saturate_wide(r);
+    return f;
+  }
+  static constexpr storage_type saturated_high() noexcept {
+    detail::record_fixed_overflow();
+    return static_cast<storage_type>(raw_max);
+  }
+  static constexpr storage_type saturated_low() noexcept {
+    detail::record_fixed_overflow();
+    return static_cast<storage_type>(raw_min);
   }
 
   static constexpr storage_type from_double(double x) noexcept {
@@ -286,8 +308,13 @@ class Fixed {
     const double s = x * kScale;  // exact (power-of-two scaling)
     // Limits at +-half an LSB beyond the range: those round outside it.
     // Checked before the integer cast, which would be UB out of range.
-    if (s >= static_cast<double>(raw_max) + 0.5) return saturate_raw(raw_max + 1);
-    if (s <= static_cast<double>(raw_min) - 0.5) return saturate_raw(raw_min - 1);
+    // Beyond 53 bits the bounds round to +-2^(TotalBits - 1) (powers of two, exact), and the
+    // comparisons below still let through exactly the values that fit.
+    constexpr bool kExactBounds = TotalBits <= 53;
+    constexpr double kHigh = static_cast<double>(raw_max) + 0.5;
+    constexpr double kLow = static_cast<double>(raw_min) - 0.5;
+    if (s >= kHigh) return saturated_high();
+    if (kExactBounds ? s <= kLow : s < kLow) return saturated_low();
     // Round to nearest, ties away from zero (std::round is not constexpr).
     std::int64_t t = static_cast<std::int64_t>(s);  // truncates towards zero
     const double frac = s - static_cast<double>(t);  // exact, |frac| < 1
@@ -301,8 +328,8 @@ class Fixed {
     // Compare before shifting so large 64-bit / unsigned inputs cannot overflow.
     constexpr std::int64_t int_max = raw_max >> FracBits;
     constexpr std::int64_t int_min = raw_min >> FracBits;  // exact: low bits are 0
-    if (std::cmp_greater(x, int_max)) return saturate_raw(raw_max + 1);
-    if (std::cmp_less(x, int_min)) return saturate_raw(raw_min - 1);
+    if (std::cmp_greater(x, int_max)) return saturated_high();
+    if (std::cmp_less(x, int_min)) return saturated_low();
     return static_cast<storage_type>(static_cast<std::int64_t>(x) * (std::int64_t{1} << FracBits));
   }
 
