@@ -25,6 +25,7 @@
 #include <cstdint>
 
 #include "hls_support.hpp"
+#include "rbdgrad/fixed_point.hpp"
 
 namespace rbdgrad::fpga {
 
@@ -161,6 +162,34 @@ void mul66(const T* I, const T* x, T* out) {
     out[r] = s;
   }
 }
+// sum over k < n of a[k] b[k * stride] with every product kept whole and one rounding at the end,
+// as an HLS multiply-accumulate does (full-width ap_fixed products into a wide accumulator, a
+// DSP's 48-bit one). The products with M^-1 need it: its entries reach about 1e3 on iiwa14, and
+// a single product with a derivative would leave Q16.16 although the sum fits.
+template <class T>
+struct WideDot {
+  static T dot(const T* a, const T* b, int n, int stride) {
+    T acc(0);
+    for (int k = 0; k < n; ++k) acc += a[k] * b[k * stride];
+    return acc;
+  }
+};
+template <int W, int F>
+struct WideDot<Fixed<W, F>> {
+  static Fixed<W, F> dot(const Fixed<W, F>* a, const Fixed<W, F>* b, int n, int stride) {
+    using ::rbdgrad::detail::int128;
+    int128 acc = 0;  // products have 2F fractional bits; 32 of them fit with room for the sum
+    for (int k = 0; k < n; ++k) acc += int128{a[k].raw()} * int128{b[k * stride].raw()};
+    const int128 raw = ::rbdgrad::detail::round_shift_right(acc, F);
+    // out of the format's range: saturate and flag, as every Fixed operation does
+    if (raw > int128{Fixed<W, F>::raw_max} || raw < int128{Fixed<W, F>::raw_min}) {
+      ::rbdgrad::detail::record_fixed_overflow();
+      return Fixed<W, F>::from_raw(raw > 0 ? Fixed<W, F>::raw_max : Fixed<W, F>::raw_min);
+    }
+    return Fixed<W, F>::from_raw(static_cast<std::int64_t>(raw));
+  }
+};
+
 // the S component of a 6-vector: S^T x
 template <class T>
 T along_S(const T* x, bool prismatic) {
@@ -311,11 +340,9 @@ void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin
     T zeros[MaxNv];
     for (int i = 0; i < n; ++i) zeros[i] = T(0);
     rnea_gradient(robot, qd, zeros, s, tau);
-    for (int i = 0; i < n; ++i) {
-      T acc(0);
-      for (int k = 0; k < n; ++k) acc += minv[i * n + k] * (u[k] - tau[k]);
-      qdd_out[i] = acc;
-    }
+    T bias[MaxNv];
+    for (int k = 0; k < n; ++k) bias[k] = u[k] - tau[k];
+    for (int i = 0; i < n; ++i) qdd_out[i] = detail::WideDot<T>::dot(minv + i * n, bias, n, 1);
   } else {
     for (int i = 0; i < n; ++i) qdd_out[i] = u[i];
   }
@@ -325,11 +352,7 @@ void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin
     RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
     T* out = j < n ? dqdd_dq : dqdd_dqd;
     const int col = j < n ? j : j - n;
-    for (int row = 0; row < n; ++row) {
-      T acc(0);
-      for (int k = 0; k < n; ++k) acc += minv[row * n + k] * s.dc[k][j];
-      out[row * n + col] = -acc;
-    }
+    for (int row = 0; row < n; ++row) out[row * n + col] = -detail::WideDot<T>::dot(minv + row * n, &s.dc[0][j], n, 2 * MaxNv);
   }
 }
 

@@ -104,15 +104,17 @@ TEST_P(GradientKernel, DoubleMatchesTheReference) {
 // Per robot and format, over the 32 reference states and both input kinds: the worst relative
 // error of d qdd/d q and d qdd/d qd among the states in range, and how many states left the range
 // (flagged, not returned). Measured on 2026-12-02 and rounded up by about 25%; fixed-point
-// arithmetic is integer-exact, so the figures move only when the kernel changes.
+// arithmetic is integer-exact, so the figures move only when the kernel changes. Where the iiwa14
+// states leave Q16.16 is not located yet: computed in double, none of the stored intermediates or
+// outputs exceeds 32768 (the largest is 2.2e4), so it is a product or partial sum inside a step.
 struct FormatBound {
   const char* robot;
   double dq, dqd;
   int out_of_range;
 };
-constexpr FormatBound kQ16_16[] = {{"iiwa14", 9e-2, 1.8e-2, 8},
-                                   {"panda", 1.5e-3, 3.3e-3, 3},
-                                   {"talos_reduced", 3.3e-3, 7.5e-3, 5},
+constexpr FormatBound kQ16_16[] = {{"iiwa14", 9e-2, 1.8e-2, 7},
+                                   {"panda", 1.5e-3, 3.3e-3, 0},
+                                   {"talos_reduced", 3.3e-3, 7.5e-3, 0},
                                    {"hyq", 1.2e-4, 4.8e-4, 0}};
 // wider: 24 integer and 24 fractional bits
 constexpr FormatBound kQ24_24[] = {{"iiwa14", 1.5e-5, 5e-5, 0},
@@ -120,9 +122,9 @@ constexpr FormatBound kQ24_24[] = {{"iiwa14", 1.5e-5, 5e-5, 0},
                                    {"talos_reduced", 6.4e-6, 2.8e-5, 0},
                                    {"hyq", 6.8e-7, 2.1e-6, 0}};
 // narrower: Q16.16's range with 12 fractional bits
-constexpr FormatBound kQ16_12[] = {{"iiwa14", 0.11, 0.19, 8},
-                                   {"panda", 2.7e-2, 7.8e-2, 3},
-                                   {"talos_reduced", 6.7e-2, 0.1, 5},
+constexpr FormatBound kQ16_12[] = {{"iiwa14", 0.11, 0.19, 7},
+                                   {"panda", 2.7e-2, 7.8e-2, 0},
+                                   {"talos_reduced", 6.7e-2, 0.1, 0},
                                    {"hyq", 2.8e-3, 7e-3, 0}};
 
 template <class T, std::size_t N>
