@@ -135,8 +135,9 @@ class FixedOverflowScope {
 
 template <int TotalBits = 32, int FracBits = 16>
 class Fixed {
-  static_assert(1 <= FracBits && FracBits < TotalBits && TotalBits <= 64,
-                "Fixed<TotalBits, FracBits> requires 1 <= FracBits < TotalBits <= 64");
+  // FracBits <= 62: 2^FracBits stays a positive int64
+  static_assert(1 <= FracBits && FracBits < TotalBits && TotalBits <= 64 && FracBits <= 62,
+                "Fixed<TotalBits, FracBits> requires 1 <= FracBits < TotalBits <= 64 and FracBits <= 62");
 
  public:
   using storage_type = detail::fixed_storage_t<TotalBits>;
