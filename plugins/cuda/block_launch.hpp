@@ -12,7 +12,7 @@
 namespace rbdgrad::cuda {
 
 /// Threads per state and states per block: a block is threads_per_state x states_per_block.
-/// threads_per_state 0 chooses by the model's size (block_shape_for).
+/// threads_per_state 0 chooses by the batch and model size (block_shape_for).
 struct BlockShape {
   int threads_per_state = 0;
   int states_per_block = 1;
