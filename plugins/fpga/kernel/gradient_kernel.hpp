@@ -13,8 +13,8 @@
 //   nonzero (a joint turns or slides along its local z), so cross products with S are moves and
 //   negations.
 //
-// This is the first increment of issue 5: the computation and its C simulation. The AXI top
-// function, the host code and the latency model come next.
+// gradient_top.cpp is the top function around it (the AXI ports, a batch of states); the host
+// plugin and the latency model are still to come (issue 5).
 // - dqdd/du = -M^-1 dc/du with M^-1 from the host, as the paper's FPGA design takes it.
 //
 // Joint angles arrive as sin and cos (the host computes them: an FPGA would otherwise need a

@@ -1,0 +1,70 @@
+#include "gradient_top.hpp"
+
+#include "gradient_kernel.hpp"
+#include "rbdgrad/fixed_point.hpp"
+
+namespace rbdgrad::fpga {
+namespace {
+
+// Q16.16, as the paper's design; ap_fixed<32, 16, AP_RND_INF, AP_SAT> under synthesis
+using DeviceScalar = Q16_16;
+
+DeviceScalar scalar(DeviceWord w) { return DeviceScalar::from_raw(w); }
+
+void read_robot(const DeviceWord* w, RobotConstants<DeviceScalar, kDeviceMaxNv>& robot) {
+  robot.nv = w[0];
+  const DeviceWord* joint = w + 1;
+  for (int i = 0; i < robot.nv; ++i, joint += AxiLayout::kWordsPerJoint) {
+    robot.parent[i] = joint[0];
+    robot.prismatic[i] = joint[1] != 0;
+    for (int e = 0; e < 9; ++e) robot.joint_rotation[i][e] = scalar(joint[2 + e]);
+    for (int e = 0; e < 3; ++e) robot.joint_translation[i][e] = scalar(joint[11 + e]);
+    for (int e = 0; e < 36; ++e) robot.inertia[i][e] = scalar(joint[14 + e]);
+  }
+  for (int e = 0; e < 3; ++e) robot.gravity[e] = scalar(joint[e]);
+}
+
+}  // namespace
+}  // namespace rbdgrad::fpga
+
+extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_words, const rbdgrad::fpga::DeviceWord* in,
+                                      rbdgrad::fpga::DeviceWord* out, int n_states, int tau_input) {
+  using namespace rbdgrad::fpga;
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = robot_words offset = slave bundle = gmem0)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = in offset = slave bundle = gmem0)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = out offset = slave bundle = gmem1)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = n_states)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = tau_input)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = return)
+  // on-chip for the whole batch (static: BRAM on hardware, and off the stack in C simulation)
+  static RobotConstants<DeviceScalar, kDeviceMaxNv> robot;
+  static KernelState<DeviceScalar, kDeviceMaxNv> state;
+  read_robot(robot_words, robot);
+  const int n = robot.nv;
+  for (int k = 0; k < n_states; ++k) {
+    const DeviceWord* w = in + static_cast<long>(k) * AxiLayout::in_words(n);
+    DeviceWord* o = out + static_cast<long>(k) * AxiLayout::out_words(n);
+    DeviceScalar q[kDeviceMaxNv], s[kDeviceMaxNv], c[kDeviceMaxNv], qd[kDeviceMaxNv], u[kDeviceMaxNv];
+    DeviceScalar minv[kDeviceMaxNv * kDeviceMaxNv];
+    for (int i = 0; i < n; ++i) {
+      q[i] = scalar(w[i]);
+      s[i] = scalar(w[n + i]);
+      c[i] = scalar(w[2 * n + i]);
+      qd[i] = scalar(w[3 * n + i]);
+      u[i] = scalar(w[4 * n + i]);
+    }
+    for (int e = 0; e < n * n; ++e) minv[e] = scalar(w[5 * n + e]);
+    DeviceScalar qdd[kDeviceMaxNv], dq[kDeviceMaxNv * kDeviceMaxNv], dqd[kDeviceMaxNv * kDeviceMaxNv];
+    // In C simulation the overflow status of the scalar type says whether the state left the
+    // range. On hardware the same flag is to come from range checks on the wide intermediates
+    // (ap_fixed saturates without telling): not designed yet.
+    const rbdgrad::FixedOverflowScope scope;
+    fd_gradient(robot, q, s, c, qd, u, tau_input != 0, minv, state, qdd, dq, dqd);
+    for (int i = 0; i < n; ++i) o[i] = qdd[i].raw();
+    for (int e = 0; e < n * n; ++e) {
+      o[n + e] = dq[e].raw();
+      o[n + n * n + e] = dqd[e].raw();
+    }
+    o[n + 2 * n * n] = scope.overflowed() ? 1 : 0;
+  }
+}

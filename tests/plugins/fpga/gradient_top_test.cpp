@@ -1,0 +1,127 @@
+// The FPGA kernel's top function (plugins/fpga/kernel/gradient_top.cpp) on batches packed by the
+// host (plugins/fpga/host/axi_packing.cpp): bit for bit what the templated kernel computes in
+// Q16.16 for each state, the out-of-range flag per state, and the packing's refusals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "../../support/test_models.hpp"
+#include "host/axi_packing.hpp"
+#include "kernel/gradient_kernel.hpp"
+#include "kernel/gradient_top.hpp"
+#include "kernel/robot_constants.hpp"
+#include "rbdgrad/fixed_point.hpp"
+#include "rbdgrad/io/state_file.hpp"
+
+namespace rbdgrad::fpga {
+namespace {
+
+io::StateFile reference(const std::string& robot) {
+  io::StateFile file;
+  std::string error;
+  EXPECT_TRUE(io::read_state_file(std::string(RBDGRAD_TEST_DATA_DIR) + "/reference/" + robot + ".jsonl", file, error))
+      << error;
+  return file;
+}
+
+// The batch through the top function, and each state through fd_gradient<Q16_16> from the same
+// words: the same bits, and the same overflow verdict.
+void check_robot(const std::string& robot, bool tau_input) {
+  const Model model = testing::load_embedded(robot);
+  const io::StateFile file = reference(robot);
+  const int n = model.nv;
+  std::vector<DeviceWord> robot_words, in;
+  std::string error;
+  ASSERT_TRUE(pack_robot(model, robot_words, error)) << error;
+  // states whose inputs do not fit the format are refused by the packing (a floating-point backend
+  // takes them); the others go to the kernel
+  std::vector<const io::StateRecord*> packed;
+  int refused = 0;
+  for (const io::StateRecord& r : file.states) {
+    if (pack_state(n, r.at("q").data(), r.at("qd").data(), r.at(tau_input ? "tau" : "qdd").data(), r.at("Minv").data(),
+                   in, error)) {
+      packed.push_back(&r);
+    } else {
+      ++refused;
+      EXPECT_NE(error.find("outside the FPGA format's range"), std::string::npos) << error;
+    }
+  }
+  const int states = static_cast<int>(packed.size());
+  std::vector<DeviceWord> out(static_cast<std::size_t>(states * AxiLayout::out_words(n)), -1);
+  rbdgrad_fpga_gradient(robot_words.data(), in.data(), out.data(), states, tau_input ? 1 : 0);
+
+  auto constants = std::make_unique<RobotConstants<Q16_16, kDeviceMaxNv>>();
+  ASSERT_TRUE(robot_constants(model, *constants));
+  auto scratch = std::make_unique<KernelState<Q16_16, kDeviceMaxNv>>();
+  int flagged = 0;
+  for (int k = 0; k < states; ++k) {
+    const DeviceWord* w = in.data() + static_cast<std::size_t>(k * AxiLayout::in_words(n));
+    auto field = [&](int f) {
+      std::vector<Q16_16> v;
+      for (int i = 0; i < (f == 5 ? n * n : n); ++i) v.push_back(Q16_16::from_raw(w[f * n + i]));
+      return v;
+    };
+    const std::vector<Q16_16> q = field(0), s = field(1), c = field(2), qd = field(3), u = field(4), minv = field(5);
+    std::vector<Q16_16> qdd(n), dq(n * n), dqd(n * n);
+    const FixedOverflowScope scope;
+    fd_gradient(*constants, q.data(), s.data(), c.data(), qd.data(), u.data(), tau_input, minv.data(), *scratch,
+                qdd.data(), dq.data(), dqd.data());
+    const DeviceWord* o = out.data() + static_cast<std::size_t>(k * AxiLayout::out_words(n));
+    ASSERT_EQ(o[n + 2 * n * n], scope.overflowed() ? 1 : 0) << robot << " state " << k;
+    flagged += scope.overflowed();
+    for (int e = 0; e < n * n; ++e) {
+      ASSERT_EQ(o[n + e], dq[e].raw()) << robot << " state " << k << " d qdd/d q " << e;
+      ASSERT_EQ(o[n + n * n + e], dqd[e].raw()) << robot << " state " << k << " d qdd/d qd " << e;
+    }
+    for (int i = 0; i < n; ++i) ASSERT_EQ(o[i], qdd[i].raw()) << robot << " state " << k << " qdd " << i;
+
+    // and back to doubles: close to the reference when in range, refused when flagged
+    std::vector<double> back_qdd(n), back_dq(n * n), back_dqd(n * n);
+    const bool in_range = unpack_state(n, o, back_qdd.data(), back_dq.data(), back_dqd.data());
+    EXPECT_EQ(in_range, !scope.overflowed());
+    if (in_range) {
+      const std::vector<double>& ref = packed[static_cast<std::size_t>(k)]->at("dqdd_dqd");
+      double num = 0, den = 0;
+      for (int e = 0; e < n * n; ++e) {
+        num += (back_dqd[e] - ref[e]) * (back_dqd[e] - ref[e]);
+        den += ref[e] * ref[e];
+      }
+      EXPECT_LE(std::sqrt(num / den), 2e-2) << robot << " state " << k;
+    }
+  }
+  std::printf("%s %s input: %d of %zu states refused by the packing, %d of the other %d flagged out of range\n",
+              robot.c_str(), tau_input ? "tau" : "qdd", refused, file.states.size(), flagged, states);
+}
+
+TEST(GradientTop, MatchesTheKernelBitForBit) {
+  for (const char* robot : {"iiwa14", "panda", "talos_reduced", "hyq"})
+    for (const bool tau_input : {false, true}) check_robot(robot, tau_input);
+}
+
+TEST(GradientTop, PackingRefusesWhatDoesNotFit) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::vector<DeviceWord> words;
+  std::string error;
+  std::vector<double> q(7, 0.1), qd(7, 0.2), u(7, 0.3), minv(49, 0.0);
+  EXPECT_TRUE(pack_state(7, q.data(), qd.data(), u.data(), minv.data(), words, error)) << error;
+  EXPECT_EQ(words.size(), static_cast<std::size_t>(AxiLayout::in_words(7)));
+  qd[3] = 40000.0;  // Q16.16 ends at 32768
+  EXPECT_FALSE(pack_state(7, q.data(), qd.data(), u.data(), minv.data(), words, error));
+  EXPECT_NE(error.find("qd[3]"), std::string::npos) << error;
+  EXPECT_EQ(words.size(), static_cast<std::size_t>(AxiLayout::in_words(7))) << "nothing appended";
+
+  Model heavy = model;
+  heavy.mass[2] = 1e6;
+  EXPECT_FALSE(pack_robot(heavy, words, error));
+  EXPECT_NE(error.find("joint 2"), std::string::npos) << error;
+  const Model big = testing::random_model(3, 33, testing::TreeShape::kBranching);
+  EXPECT_FALSE(pack_robot(big, words, error));
+  EXPECT_NE(error.find("at most 32"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace rbdgrad::fpga
