@@ -4,22 +4,22 @@
 // synthesis; double gives the reference of the same algorithm).
 //
 // - RNEA in each body's own frame (Algorithm 1): the values stay of the size of the robot's
-//   velocities and forces, which is what makes 32-bit fixed point enough (the core's world-frame
-//   passes overflow Q16.16 on some states, see tests/core/reference_accuracy_test.cpp).
+//   velocities and forces, which keeps most states within 32-bit fixed point (the core's
+//   world-frame passes overflow Q16.16 more often, see tests/core/reference_accuracy_test.cpp).
 // - Its gradient as Algorithm 5 orders it: every column j of dc/du (u = q and qd) in its own
 //   datapath (the loops over columns are the ones HLS unrolls), the forward sweep of the
 //   derivatives fused with the forward pass, and the structure written out rather than multiplied
 //   by: a joint transform is a rotation and an offset (never a 6x6 product), and S has a single
 //   nonzero (a joint turns or slides along its local z), so cross products with S are moves and
 //   negations.
-//
-// gradient_top.cpp is the top function around it (the AXI ports, a batch of states); the host
-// plugin and the latency model are still to come (issue 5).
 // - dqdd/du = -M^-1 dc/du with M^-1 from the host, as the paper's FPGA design takes it.
 //
 // Joint angles arrive as sin and cos (the host computes them: an FPGA would otherwise need a
 // CORDIC core per joint). Every arithmetic operation of T saturates and flags an overflow
 // (FixedOverflowScope in the caller), so an out-of-range state is never silently wrong.
+//
+// gradient_top.cpp is the top function around it (the AXI ports, a batch of states); the host
+// plugin and the latency model are still to come (issue 5).
 #pragma once
 
 #include <cstdint>
