@@ -10,6 +10,7 @@ extern "C" {
 /// \param in n_states x AxiLayout::in_words(nv) words.
 /// \param out n_states x AxiLayout::out_words(nv) words.
 /// \param tau_input 1: u holds tau (qdd = M^-1 (tau - c)), 0: u holds qdd.
+/// Not reentrant: its on-chip memory is static, as on hardware, so one call runs at a time.
 void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot, const rbdgrad::fpga::DeviceWord* in,
                            rbdgrad::fpga::DeviceWord* out, int n_states, int tau_input);
 }
