@@ -12,6 +12,7 @@
 
 #include "../../support/test_models.hpp"
 #include "../support/core_reference.hpp"
+#include "../support/output_cases.hpp"
 #include "../support/plugin_harness.hpp"
 #include "common/error.hpp"
 #include "common/model_desc.hpp"
@@ -30,24 +31,6 @@ const rbdgrad_plugin_api* cpu_api() {
   return api;
 }
 
-// what a batch asks for; every case runs with tau and with qdd input
-struct Case {
-  const char* name;
-  std::uint32_t outputs;
-  bool fext, minv;
-};
-constexpr Case kCases[] = {
-    {"all outputs", plugin::kAllOutputs, false, false},
-    {"all outputs, external forces", plugin::kAllOutputs, true, false},
-    {"all outputs, supplied M^-1, external forces", plugin::kAllOutputs, true, true},
-    {"d qdd with supplied M^-1", RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD, false, true},
-    {"qdd alone, external forces", RBDGRAD_OUTPUT_QDD, true, false},
-    {"qdd and M^-1", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV, false, false},
-    {"tau alone", RBDGRAD_OUTPUT_TAU, false, false},
-    {"tau side and M, external forces",
-     RBDGRAD_OUTPUT_TAU | RBDGRAD_OUTPUT_DTAU_DQ | RBDGRAD_OUTPUT_DTAU_DQD | RBDGRAD_OUTPUT_M, true, false},
-    {"M alone", RBDGRAD_OUTPUT_M, false, false},
-};
 
 Model robot_model(const std::string& name) {
   if (name == "random_tree") return random_model(21, 12, TreeShape::kBranching);
@@ -111,7 +94,7 @@ std::vector<SlotT<S>> to_slots(const std::vector<double>& x) {
 
 // The inputs of state k as the reference takes them, from the same arrays the plugin reads.
 template <class S>
-ReferenceInputs<S> reference_inputs(const BatchArrays<SlotT<S>>& a, std::size_t k, const Case& c) {
+ReferenceInputs<S> reference_inputs(const BatchArrays<SlotT<S>>& a, std::size_t k, const OutputCase& c) {
   const auto nv = static_cast<Eigen::Index>(a.nv);
   ReferenceInputs<S> in;
   auto vec = [&](const std::vector<SlotT<S>>& src, Eigen::Index len) {
@@ -160,7 +143,7 @@ void check_robot(const std::string& robot, Tally& tally) {
 
   for (const std::uint32_t kind : {RBDGRAD_INPUT_TAU, RBDGRAD_INPUT_QDD}) {
     a.u = to_slots<S>(kind == RBDGRAD_INPUT_TAU ? st.tau : st.qdd);
-    for (const Case& c : kCases) {
+    for (const OutputCase& c : kOutputCases) {
       const std::string what = robot + " " + scalar_name<S>() + " " + c.name +
                                (kind == RBDGRAD_INPUT_TAU ? ", tau input" : ", qdd input");
       // the core, called directly, one state after the other on one workspace

@@ -15,6 +15,7 @@
 
 #include "../../support/test_models.hpp"
 #include "../support/core_reference.hpp"
+#include "../support/output_cases.hpp"
 #include "device/fused_state.hpp"
 #include "rbdgrad/fixed_point.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -25,26 +26,6 @@ inline Model robot_model(const std::string& name) {
   if (name == "random_tree") return random_model(21, 12, TreeShape::kBranching);
   return load_embedded(name);
 }
-
-// What a batch asks for; every case runs with tau and with qdd input.
-struct OutputCase {
-  const char* name;
-  std::uint32_t outputs;
-  bool fext, minv;
-};
-inline constexpr std::uint32_t kEveryOutput = 255;
-inline constexpr OutputCase kOutputCases[] = {
-    {"all outputs", kEveryOutput, false, false},
-    {"all outputs, external forces", kEveryOutput, true, false},
-    {"all outputs, supplied M^-1, external forces", kEveryOutput, true, true},
-    {"d qdd with supplied M^-1", RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD, false, true},
-    {"qdd alone, external forces", RBDGRAD_OUTPUT_QDD, true, false},
-    {"qdd and M^-1", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV, false, false},
-    {"tau alone", RBDGRAD_OUTPUT_TAU, false, false},
-    {"tau side and M, external forces",
-     RBDGRAD_OUTPUT_TAU | RBDGRAD_OUTPUT_DTAU_DQ | RBDGRAD_OUTPUT_DTAU_DQD | RBDGRAD_OUTPUT_M, true, false},
-    {"M alone", RBDGRAD_OUTPUT_M, false, false},
-};
 
 // The gradient requests the block kernel takes (device/block_fused_state.hpp); the others go to
 // the one-thread kernel.
