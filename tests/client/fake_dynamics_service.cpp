@@ -13,6 +13,8 @@
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
 
+#include "request_batch.hpp"
+
 namespace rbdgrad::testing {
 
 namespace v1 = rbdgrad::v1;
@@ -22,20 +24,8 @@ namespace {
 const v1::Output kOutputs[] = {v1::OUTPUT_QDD, v1::OUTPUT_MINV,    v1::OUTPUT_DQDD_DQ, v1::OUTPUT_DQDD_DQD,
                                v1::OUTPUT_TAU, v1::OUTPUT_DTAU_DQ, v1::OUTPUT_DTAU_DQD, v1::OUTPUT_M};
 
-bool is_vector(v1::Output o) { return o == v1::OUTPUT_QDD || o == v1::OUTPUT_TAU; }
-
-v1::Tensor* tensor_of(v1::ComputeResponse& r, v1::Output o) {
-  switch (o) {
-    case v1::OUTPUT_QDD: return r.mutable_qdd();
-    case v1::OUTPUT_MINV: return r.mutable_minv();
-    case v1::OUTPUT_DQDD_DQ: return r.mutable_dqdd_dq();
-    case v1::OUTPUT_DQDD_DQD: return r.mutable_dqdd_dqd();
-    case v1::OUTPUT_TAU: return r.mutable_tau();
-    case v1::OUTPUT_DTAU_DQ: return r.mutable_dtau_dq();
-    case v1::OUTPUT_DTAU_DQD: return r.mutable_dtau_dqd();
-    default: return r.mutable_m();
-  }
-}
+// the server's own mapping of outputs to response tensors and shapes
+bool is_vector(v1::Output o) { return !server::is_matrix_output(o); }
 
 std::vector<double> doubles(const v1::Tensor& t) {
   std::vector<double> v(t.data().size() / sizeof(double));
@@ -91,7 +81,7 @@ grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::Com
     bool wanted = false;
     for (int x : req.outputs()) wanted |= x == o;
     if (!wanted) continue;
-    v1::Tensor* t = tensor_of(resp, o);
+    v1::Tensor* t = server::response_tensor(resp, o);
     t->set_type(f32 ? v1::SCALAR_TYPE_F32 : v1::SCALAR_TYPE_F64);
     std::string& bytes = *t->mutable_data();
     const int cols = is_vector(o) ? 1 : nv;
