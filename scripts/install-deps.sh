@@ -13,6 +13,7 @@ packages=(
   libyaml-cpp-dev                # daemon configuration (coming with the service)
   libgtest-dev libgmock-dev      # unit tests
   libbenchmark-dev               # microbenchmarks (bench)
+  libxrt-dev                     # FPGA backend: XRT host API (plugins/fpga)
   python3                        # CLI tests compare result files (stdlib only)
 )
 

@@ -130,6 +130,11 @@ void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, 
       backend.model_reason[m] = std::move(reason);
       continue;
     }
+    // every instance of a backend gets the same options: the first one speaks for all
+    if (state.description.mode.empty() && state.description.device.empty()) {
+      // a failure here is shown where the device would be, in the start-up log and server info
+      if (Status s = instances.front()->describe(state.description); !s) state.description.device = s.message();
+    }
     backend.pools[m] = std::make_unique<InstancePool>(std::move(instances), options.pool);
   }
   state.ready = std::any_of(backend.pools.begin(), backend.pools.end(), [](const auto& p) { return p != nullptr; });

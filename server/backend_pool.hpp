@@ -33,6 +33,9 @@ struct BackendState {
   std::vector<std::string> model_problems;
   std::size_t instances_per_model = 0;  // instances created per served model
   std::string options;  // "threads=8": the instance options it was given, for the log
+  // how its instances run (the first instance's describe_instance): mode "csim" when the FPGA
+  // backend runs its kernel's C simulation on the host; device for the log
+  InstanceDescription description;
 };
 
 // Where one request goes.

@@ -65,6 +65,8 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
     return invalid_argument(prefix_ + "precision has unknown value " + std::to_string(request_.precision()));
   }
   if (Status s = context.backends().route(*model, backend, precision, route_); !s) return with_prefix(prefix_, s);
+  context_ = &context;
+  model_ = model;
 
   const auto max_states = static_cast<std::uint32_t>(
       std::min<std::int64_t>(context.limits().max_states_per_request, std::numeric_limits<std::uint32_t>::max()));
@@ -84,31 +86,152 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
 
 void ComputeCall::run(PluginInstance& instance) noexcept {
   try {
-    const Clock::time_point started = Clock::now();
-    const Status computed = instance.compute(batch_.batch());
-    const Clock::time_point finished = Clock::now();
-    if (!computed) {
-      // a per-state failure fails the request: the plugin's message names the state
-      status_ = with_prefix(prefix_, computed);
-    } else {
-      batch_.to_response(response_, request_.output_type());
-      response_.set_backend(backend_enum(route_.backend->name));
-      v1::Timings* t = response_.mutable_timings();
-      t->set_queue_us(micros(started - accepted_));
-      t->set_compute_us(micros(finished - started));
-      t->set_total_us(micros(Clock::now() - accepted_));
-      // what gRPC would do for a typed method: straight into slices, no intermediate string
-      bool own_buffer = false;
-      const grpc::Status s = grpc::SerializationTraits<v1::ComputeResponse>::Serialize(response_, response_bytes_,
-                                                                                        &own_buffer);
-      if (!s.ok()) status_ = Status(StatusCode::kInternal, prefix_ + "cannot serialize the response: " + s.error_message());
-    }
+    if (!run_stage(instance)) return;  // the fallback run completes the call
   } catch (const std::exception& e) {
     status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
   } catch (...) {
     status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
   }
   complete();
+}
+
+bool ComputeCall::run_stage(PluginInstance& instance) {
+  if (in_fallback_) {
+    const Clock::time_point started = Clock::now();
+    const Status computed = instance.compute(fallback_batch_.batch());
+    compute_time_ += Clock::now() - started;
+    if (!computed) {
+      // the backend numbers the fallback's states from 0: say which of the request's they are
+      std::string states;
+      for (std::uint32_t k : fallback_states_) states += (states.empty() ? "" : ", ") + std::to_string(k);
+      status_ = with_prefix(prefix_, Status(computed.code(), "the floating-point fallback of states " + states +
+                                                                 " (the fixed-point range could not hold them; "
+                                                                 "numbered from 0 in this order) failed: " +
+                                                                 computed.message()));
+    } else {
+      finish();
+    }
+    return true;
+  }
+  started_ = Clock::now();
+  const Status computed = instance.compute(batch_.batch());
+  compute_time_ = Clock::now() - started_;
+  if (computed) {
+    finish();
+    return true;
+  }
+  bool fallback = false;
+  if (Status s = prepare_fallback(computed, fallback); !s) {
+    status_ = with_prefix(prefix_, s);
+    return true;
+  }
+  if (!fallback) {
+    // a per-state failure fails the request: the plugin's message names the state
+    status_ = with_prefix(prefix_, computed);
+    return true;
+  }
+  in_fallback_ = true;
+  // run() happens again on the fallback's pool (maybe right here); this run is over
+  fallback_route_.pool->submit(*this, fallback_states_.size());
+  return false;
+}
+
+namespace {
+
+// The states `states` of `in` (per_state scalars each), in that order, into `out`.
+void slice_states(const v1::Tensor& in, const std::vector<std::uint32_t>& states, std::size_t per_state,
+                  v1::Tensor& out) {
+  if (in.data().empty()) return;
+  const std::size_t bytes = per_state * (in.type() == v1::SCALAR_TYPE_F32 ? sizeof(float) : sizeof(double));
+  out.set_type(in.type());
+  std::string* data = out.mutable_data();
+  data->reserve(bytes * states.size());
+  for (std::uint32_t k : states) data->append(in.data(), k * bytes, bytes);
+}
+
+}  // namespace
+
+Status ComputeCall::prepare_fallback(const Status& failure, bool& prepared) {
+  prepared = false;
+  const rbdgrad_batch& b = batch_.batch();
+  const std::string& fallback = context_->fixed_point_fallback();
+  if (b.precision != RBDGRAD_PRECISION_FIXED_Q16_16 || fallback.empty() || b.state_status == nullptr) {
+    return Status::ok();
+  }
+  fallback_states_.clear();
+  for (std::uint64_t k = 0; k < b.n; ++k) {
+    if (b.state_status[k] == RBDGRAD_OK) continue;
+    // another failure (a singular M, a device error) is not the format's doing: it stands
+    if (b.state_status[k] != RBDGRAD_ERROR_OUT_OF_RANGE) return Status::ok();
+    fallback_states_.push_back(static_cast<std::uint32_t>(k));
+  }
+  if (fallback_states_.empty()) return Status::ok();  // the whole batch failed: nothing to re-run
+
+  // the fallback backend in its best floating-point precision
+  if (Status s = context_->backends().route(*model_, fallback, 0, fallback_route_); !s) {
+    return Status(failure.code(), failure.message() + "; no fixed-point fallback: " + s.message());
+  }
+  if (fallback_route_.precision == RBDGRAD_PRECISION_FIXED_Q16_16) {
+    return Status(failure.code(), failure.message() + "; no fixed-point fallback: backend " + fallback +
+                                      " computes in fixed point only");
+  }
+  // the request, cut down to those states
+  const int nv = model_->model.nv;
+  const auto n1 = static_cast<std::size_t>(nv);
+  v1::ComputeRequest sub = request_;
+  for (v1::Tensor* t : {sub.mutable_q(), sub.mutable_qd(), sub.mutable_u(), sub.mutable_minv(), sub.mutable_fext()}) t->Clear();
+  sub.set_num_states(static_cast<std::uint32_t>(fallback_states_.size()));
+  slice_states(request_.q(), fallback_states_, n1, *sub.mutable_q());
+  slice_states(request_.qd(), fallback_states_, n1, *sub.mutable_qd());
+  slice_states(request_.u(), fallback_states_, n1, *sub.mutable_u());
+  slice_states(request_.minv(), fallback_states_, n1 * n1, *sub.mutable_minv());
+  slice_states(request_.fext(), fallback_states_, 6 * n1, *sub.mutable_fext());
+  if (Status s = RequestBatch::from_request(sub, nv, fallback_route_.precision, sub.num_states(), fallback_batch_);
+      !s) {
+    return Status(StatusCode::kInternal, "cannot prepare the fixed-point fallback: " + s.message());
+  }
+  const rbdgrad_batch& fb = fallback_batch_.batch();
+  if (Status s = fallback_route_.plugin->can_run(model_->desc.desc(), fallback_route_.precision, fb.outputs, fb.n);
+      !s) {
+    return Status(failure.code(), failure.message() + "; no fixed-point fallback: " + s.message());
+  }
+  prepared = true;
+  return Status::ok();
+}
+
+void ComputeCall::finish() {
+  const v1::ScalarType type = request_.output_type();
+  batch_.to_response(response_, type);
+  response_.set_backend(backend_enum(route_.backend->name));
+  response_.set_backend_mode(route_.backend->description.mode);
+  if (in_fallback_) {
+    // the recomputed states' outputs over the flagged ones, in the wire encoding
+    v1::ComputeResponse fallback;
+    fallback_batch_.to_response(fallback, type);
+    const std::size_t scalar = type == v1::SCALAR_TYPE_F32 ? sizeof(float) : sizeof(double);
+    const auto nv = static_cast<std::size_t>(batch_.nv());
+    for (int o : request_.outputs()) {
+      const auto output = static_cast<v1::Output>(o);
+      const std::size_t bytes = (is_matrix_output(output) ? nv * nv : nv) * scalar;
+      std::string& to = *response_tensor(response_, output)->mutable_data();
+      const std::string& from = response_tensor(fallback, output)->data();
+      for (std::size_t j = 0; j < fallback_states_.size(); ++j) {
+        to.replace(fallback_states_[j] * bytes, bytes, from, j * bytes, bytes);
+      }
+    }
+    for (std::uint32_t k : fallback_states_) response_.add_fallback_states(k);
+    response_.set_fallback_backend(backend_enum(fallback_route_.backend->name));
+    response_.set_fallback_precision(precision_enum(fallback_route_.precision));
+  }
+  v1::Timings* t = response_.mutable_timings();
+  t->set_queue_us(micros(started_ - accepted_));
+  t->set_compute_us(micros(compute_time_));
+  t->set_total_us(micros(Clock::now() - accepted_));
+  // what gRPC would do for a typed method: straight into slices, no intermediate string
+  bool own_buffer = false;
+  const grpc::Status s = grpc::SerializationTraits<v1::ComputeResponse>::Serialize(response_, response_bytes_,
+                                                                                    &own_buffer);
+  if (!s.ok()) status_ = Status(StatusCode::kInternal, prefix_ + "cannot serialize the response: " + s.error_message());
 }
 
 }  // namespace rbdgrad::server

@@ -2,12 +2,16 @@
 // streaming handlers: parse, find the model, route, validate and convert (prepare, on the gRPC
 // thread), then compute, fill the response with its timings and serialize it (run, on whichever
 // thread the InstancePool gives it), then complete() hands it back to the handler.
+// A fixed-point request whose states left the Q16.16 range runs a second time, on the fallback
+// backend's pool, for those states only, in floating point; their outputs replace the flagged ones.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <grpcpp/support/byte_buffer.h>
 
@@ -25,12 +29,16 @@ namespace rbdgrad::server {
 // admission counter.
 class ComputeContext {
  public:
-  ComputeContext(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits)
-      : models_(models), backends_(backends), limits_(limits) {}
+  /// \param fixed_point_fallback the backend that recomputes fixed-point states that left the
+  ///        format's range (ServerConfig::fixed_point_fallback); "" = none.
+  ComputeContext(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
+                 std::string fixed_point_fallback = "")
+      : models_(models), backends_(backends), limits_(limits), fixed_point_fallback_(std::move(fixed_point_fallback)) {}
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return backends_; }
   const LimitsConfig& limits() const noexcept { return limits_; }
+  const std::string& fixed_point_fallback() const noexcept { return fixed_point_fallback_; }
 
   enum class Admission { kAdmitted, kTooManyInFlight, kShuttingDown };
 
@@ -48,6 +56,7 @@ class ComputeContext {
   const ModelRegistry& models_;
   const BackendPool& backends_;
   const LimitsConfig limits_;
+  const std::string fixed_point_fallback_;
   std::atomic<std::int64_t> in_flight_{0};
   std::atomic<bool> stopping_{false};
 };
@@ -74,8 +83,9 @@ class ComputeCall : public PoolJob {
   /// Nothing is kept on error: the call is then not to be submitted.
   Status prepare(const grpc::ByteBuffer& message, const ComputeContext& context, std::int64_t stream_index);
 
-  /// Hands a prepared call to its backend's pool: run() then happens exactly once, maybe before
-  /// submit() returns.
+  /// Hands a prepared call to its backend's pool: run() then happens once (twice, the second time
+  /// on the fallback backend's pool, when fixed-point states fell back), maybe before submit()
+  /// returns; complete() once at the end.
   void submit() { route_.pool->submit(*this, batch_.num_states()); }
 
   /// The outcome, valid once complete() is called: ok (and the response serialized into
@@ -91,15 +101,32 @@ class ComputeCall : public PoolJob {
 
  private:
   void run(PluginInstance& instance) noexcept final;
+  // the body of run() that may throw; false when the call goes on to its fallback run
+  bool run_stage(PluginInstance& instance);
+  // After the primary run failed with `failure`: when the request is fixed-point, a fallback
+  // backend is configured and every failed state left the range, readies fallback_batch_ with
+  // those states and returns true; otherwise false (the failure stands) or an error of its own.
+  Status prepare_fallback(const Status& failure, bool& prepared);
+  // The response from batch_ (and fallback_batch_), with timings, serialized into response_bytes_.
+  void finish();
 
   const Clock::time_point accepted_;
   grpc::ByteBuffer* const response_bytes_;
+  const ComputeContext* context_ = nullptr;  // set by prepare
+  const ServedModel* model_ = nullptr;
   std::string prefix_;  // "request 'id': " for messages
   rbdgrad::v1::ComputeRequest request_;
   rbdgrad::v1::ComputeResponse response_;
   RequestBatch batch_;
   Route route_;
   Status status_;
+  Clock::duration compute_time_{};  // in the backends, both runs
+  Clock::time_point started_;       // of the primary run
+  // the fallback run: the states of batch_ it recomputes (ascending), their batch and backend
+  bool in_fallback_ = false;
+  std::vector<std::uint32_t> fallback_states_;
+  RequestBatch fallback_batch_;
+  Route fallback_route_;
 };
 
 }  // namespace rbdgrad::server

@@ -219,8 +219,8 @@ class Parser {
     if (root.IsNull()) return Status::ok();
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
-                              {"listen", "models", "plugins", "workers", "inline_max_states", "limits",
-                               "log_level"});
+                              {"listen", "models", "plugins", "workers", "inline_max_states",
+                               "fixed_point_fallback", "limits", "log_level"});
         !s) {
       return s;
     }
@@ -238,6 +238,10 @@ class Parser {
     }
     if (root["inline_max_states"]) {
       if (Status s = get_int("inline_max_states", root["inline_max_states"], 0, kMaxInt32, out.inline_max_states); !s)
+        return s;
+    }
+    if (root["fixed_point_fallback"]) {
+      if (Status s = get_string("fixed_point_fallback", root["fixed_point_fallback"], out.fixed_point_fallback); !s)
         return s;
     }
     if (root["limits"]) {
@@ -386,6 +390,7 @@ std::string describe(const ServerConfig& cfg) {
     os << cfg.workers << "\n";
   }
   os << "inline_max_states: " << cfg.inline_max_states << "\n";
+  os << "fixed_point_fallback: " << (cfg.fixed_point_fallback.empty() ? "none" : cfg.fixed_point_fallback) << "\n";
   os << "limits: max_states_per_request " << cfg.limits.max_states_per_request
      << ", max_message_bytes " << cfg.limits.max_message_bytes << ", max_concurrent_requests "
      << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "

@@ -96,6 +96,10 @@ struct ServerConfig {
   // thread. Saves a thread hand-off (tens of us) per small request; a gRPC thread is then busy for
   // the computation. Default 128. Range [0, 2^31-1]; 0 = always hand over.
   int64_t inline_max_states = 128;
+  // The backend that computes again, in its best floating-point precision, the states of a
+  // PRECISION_FIXED request that left the Q16.16 range (the response lists them). Default "cpu";
+  // "" = none: such a state then fails the request, naming it.
+  std::string fixed_point_fallback = "cpu";
   // Admission limits (see LimitsConfig).
   LimitsConfig limits;
   // Least severe log level written. Default info.

@@ -30,6 +30,9 @@ std::string backend_line(const BackendState& b) {
   os << "backend " << b.name << ": ready ";
   // the CPU plugin runs the core library inside the daemon's process
   if (b.name == "cpu") os << "(in-process core library) ";
+  // a stand-in says so first: "ready (csim: ...)" must not read as hardware
+  if (!b.description.mode.empty()) os << "(" << b.description.mode << ") ";
+  if (!b.description.device.empty()) os << "on " << b.description.device << " ";
   os << "from " << b.path << ": version " << (b.info.version.empty() ? "?" : b.info.version) << ", precisions "
      << precision_list(b.info.precisions) << ", max_batch ";
   if (b.info.max_batch == 0) {
@@ -87,7 +90,8 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   }
   if (d->backends_->ready_count() == 0) return unavailable("no backend is available: nothing can serve requests");
 
-  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, cfg.limits, RBDGRAD_VERSION);
+  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, cfg.limits, RBDGRAD_VERSION,
+                                                  cfg.fixed_point_fallback);
   out = std::move(d);
   return Status::ok();
 }

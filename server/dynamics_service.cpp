@@ -102,6 +102,8 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
     info->set_name(state.name);
     info->set_ready(state.ready);
     info->set_reason(state.reason);
+    info->set_mode(state.description.mode);
+    info->set_device(state.description.device);
     if (!state.info.name.empty()) {
       add_precisions(state.info.precisions, *info);
       info->set_max_batch(state.info.max_batch);
@@ -124,8 +126,8 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
 }
 
 DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
-                                 std::string version)
-    : context_(models, backends, limits), server_info_(describe_server(backends, limits, version)) {
+                                 std::string version, std::string fixed_point_fallback)
+    : context_(models, backends, limits, std::move(fixed_point_fallback)), server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
     v1::ModelSummary* s = list_models_.add_models();
     s->set_name(m->name);

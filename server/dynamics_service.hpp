@@ -26,9 +26,10 @@ using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
-  /// `models` and `backends` must outlive the service; `version` is GetServerInfo's.
+  /// `models` and `backends` must outlive the service; `version` is GetServerInfo's;
+  /// `fixed_point_fallback` is ServerConfig's ("" = none).
   DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
-                  std::string version);
+                  std::string version, std::string fixed_point_fallback = "");
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.

@@ -24,6 +24,8 @@ class LoadedLibrary {
   void* handle() const noexcept { return handle_; }
 
   const rbdgrad_plugin_api* api = nullptr;  // set once the table has been checked
+  // the table's describe_instance when the plugin is of minor >= 1 and has one, else null
+  rbdgrad_error* (*describe_instance)(const rbdgrad_instance*, rbdgrad_instance_info*) = nullptr;
   std::string name;                         // the plugin's name: the prefix of its errors
 
  private:
@@ -36,6 +38,10 @@ namespace {
 // at least this long; a longer one is from a newer minor and we read only what we know.
 constexpr size_t kTableSizeV1_0 =
     offsetof(rbdgrad_plugin_api, error_delete) + sizeof(rbdgrad_plugin_api::error_delete);
+
+// API 1.1 appended describe_instance.
+constexpr size_t kTableSizeV1_1 =
+    offsetof(rbdgrad_plugin_api, describe_instance) + sizeof(rbdgrad_plugin_api::describe_instance);
 
 std::string api_version(uint32_t major, uint32_t minor) {
   return std::to_string(major) + "." + std::to_string(minor);
@@ -53,6 +59,7 @@ Status status_for(uint32_t code, std::string message) {
     case RBDGRAD_ERROR_NUMERICAL: return out_of_range(std::move(message));
     case RBDGRAD_ERROR_UNAVAILABLE: return unavailable(std::move(message));
     case RBDGRAD_ERROR_INTERNAL: return {StatusCode::kInternal, std::move(message)};
+    case RBDGRAD_ERROR_OUT_OF_RANGE: return out_of_range(std::move(message));
   }
   // a code this host does not know is a plugin bug; keep the number for whoever reads the log
   return {StatusCode::kInternal, std::move(message) + " (unknown plugin error code " +
@@ -137,6 +144,7 @@ Status Plugin::load(const std::string& path, std::unique_ptr<Plugin>& out) {
   }
   if (Status status = check_table(*api, where); !status) return status;
   library->api = api;
+  if (api->struct_size >= kTableSizeV1_1) library->describe_instance = api->describe_instance;
 
   // what the backend can do, copied: its strings live only as long as the library
   rbdgrad_plugin_info raw{};
@@ -208,6 +216,21 @@ PluginInstance::~PluginInstance() { destroy(); }
 
 void PluginInstance::destroy() noexcept {
   if (handle_ != nullptr) library_->api->destroy_instance(std::exchange(handle_, nullptr));
+}
+
+Status PluginInstance::describe(InstanceDescription& out) const {
+  out = {};
+  if (handle_ == nullptr) return failed_precondition("describe on a moved-from plugin instance");
+  if (library_->describe_instance == nullptr) return Status::ok();
+  rbdgrad_instance_info raw{};
+  raw.struct_size = sizeof(raw);
+  if (Status s = take_error(*library_->api, library_->name + ": describe_instance",
+                            library_->describe_instance(handle_, &raw));
+      !s)
+    return s;
+  out.mode = raw.mode != nullptr ? raw.mode : "";
+  out.device = raw.device != nullptr ? raw.device : "";
+  return Status::ok();
 }
 
 Status PluginInstance::compute(const rbdgrad_batch& batch) {

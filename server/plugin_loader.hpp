@@ -30,6 +30,12 @@ struct PluginInfo {
   uint32_t api_minor = 0;
 };
 
+// How an instance runs (describe_instance, plugin API 1.1); empty for older plugins.
+struct InstanceDescription {
+  std::string mode;    // "" = the backend itself; "csim" = the FPGA kernel's C simulation on the host
+  std::string device;  // "NVIDIA H200 (device 0)"; "" = unnamed
+};
+
 // One model prepared on one backend (create_instance .. destroy_instance). Move-only; a moved-from
 // instance may only be destroyed or assigned to (compute then fails with kFailedPrecondition).
 // Not thread-safe: the ABI forbids concurrent compute on one instance, so each worker owns its own.
@@ -45,6 +51,10 @@ class PluginInstance {
   /// per-state failure the other states are still computed, batch.state_status (if set) says which
   /// failed, and the Status names the first ("cpu: state 3: ..."). Does not allocate on success.
   Status compute(const rbdgrad_batch& batch);
+
+  /// What the plugin says the instance runs on; empty (and ok) when its table has no
+  /// describe_instance.
+  Status describe(InstanceDescription& out) const;
 
  private:
   friend class Plugin;

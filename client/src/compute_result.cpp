@@ -98,6 +98,23 @@ const std::string& ComputeResult::request_id() const noexcept {
 std::uint32_t ComputeResult::num_states() const noexcept { return valid() ? impl_->response.num_states() : 0; }
 int ComputeResult::nv() const noexcept { return valid() ? impl_->nv : 0; }
 Backend ComputeResult::backend() const noexcept { return valid() ? impl_->backend : Backend::kAuto; }
+const std::string& ComputeResult::backend_mode() const noexcept {
+  static const std::string kEmpty;
+  return valid() ? impl_->response.backend_mode() : kEmpty;
+}
+std::span<const std::uint32_t> ComputeResult::fallback_states() const noexcept {
+  if (!valid()) return {};
+  const auto& states = impl_->response.fallback_states();
+  return {states.data(), static_cast<std::size_t>(states.size())};
+}
+Backend ComputeResult::fallback_backend() const noexcept {
+  return valid() && impl_->response.fallback_states_size() > 0 ? detail::from_proto(impl_->response.fallback_backend())
+                                                                : Backend::kAuto;
+}
+Precision ComputeResult::fallback_precision() const noexcept {
+  return valid() && impl_->response.fallback_states_size() > 0 ? detail::from_proto(impl_->response.fallback_precision())
+                                                                : Precision::kAuto;
+}
 Precision ComputeResult::precision() const noexcept { return valid() ? impl_->precision : Precision::kAuto; }
 ScalarType ComputeResult::output_type() const noexcept { return valid() ? impl_->type : ScalarType::kF64; }
 std::uint32_t ComputeResult::outputs() const noexcept { return valid() ? impl_->outputs : 0; }

@@ -37,6 +37,8 @@ ServerInfo decode(const v1::GetServerInfoResponse& r) {
     s.reason = b.reason();
     for (int p : b.precisions()) s.precisions.push_back(from_proto(static_cast<v1::Precision>(p)));
     s.max_batch = b.max_batch();
+    s.mode = b.mode();
+    s.device = b.device();
     info.backends.push_back(std::move(s));
   }
   info.max_states_per_request = r.max_states_per_request();

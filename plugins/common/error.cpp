@@ -1,5 +1,7 @@
 #include "error.hpp"
 
+#include "host_api.hpp"
+
 namespace rbdgrad::plugin {
 
 namespace {
@@ -39,6 +41,13 @@ rbdgrad_error_code error_code_from_status(StatusCode code) noexcept {
     case StatusCode::kUnavailable: return RBDGRAD_ERROR_UNAVAILABLE;
     default: return RBDGRAD_ERROR_INTERNAL;
   }
+}
+
+rbdgrad_error_code state_error_code(StatusCode code, std::uint32_t precision) noexcept {
+  if (code == StatusCode::kOutOfRange && precision == RBDGRAD_PRECISION_FIXED_Q16_16 && host_api_minor() >= 1) {
+    return RBDGRAD_ERROR_OUT_OF_RANGE;
+  }
+  return error_code_from_status(code);
 }
 
 rbdgrad_error* make_error(const Status& status) noexcept {

@@ -3,6 +3,7 @@
 // exceptions from crossing the C boundary (plugin_api.h: "plugins catch everything").
 #pragma once
 
+#include <cstdint>
 #include <exception>
 #include <new>
 #include <string>
@@ -33,6 +34,11 @@ rbdgrad_error* make_error(rbdgrad_error_code code, const char* prefix, const cha
 /// invalid_argument -> INVALID_ARGUMENT; out_of_range, failed_precondition -> NUMERICAL;
 /// unimplemented -> UNSUPPORTED; anything else -> INTERNAL.
 rbdgrad_error_code error_code_from_status(StatusCode code) noexcept;
+
+/// The state_status code of a state that failed with `code` in a batch of `precision`: out_of_range
+/// in fixed point means the state left the format's range, RBDGRAD_ERROR_OUT_OF_RANGE, for hosts
+/// of API minor >= 1 (older ones get NUMERICAL); otherwise error_code_from_status.
+rbdgrad_error_code state_error_code(StatusCode code, std::uint32_t precision) noexcept;
 
 /// NULL for an ok status, else a new error with the status message (no code-name prefix).
 rbdgrad_error* make_error(const Status& status) noexcept;

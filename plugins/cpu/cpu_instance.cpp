@@ -62,7 +62,7 @@ Status CpuInstance::compute_typed(const rbdgrad_batch& batch) {
     const std::size_t end = begin + base + (task < extra ? 1 : 0);
     for (std::size_t k = begin; k < end; ++k) {
       Status s = evaluator.evaluate(m, view, k);
-      view.set_status(k, s ? 0 : static_cast<std::int32_t>(error_code_from_status(s.code())));
+      view.set_status(k, s ? 0 : static_cast<std::int32_t>(state_error_code(s.code(), batch.precision)));
       if (!s && result.failures++ == 0) {
         result.first_failed = k;
         result.status = std::move(s);

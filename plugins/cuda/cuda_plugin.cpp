@@ -135,6 +135,7 @@ constexpr rbdgrad_plugin_api kApi = {
     &error_code,
     &error_message,
     &error_delete,
+    nullptr,  // describe_instance: nothing beyond the plugin's name to say
 };
 
 }  // namespace

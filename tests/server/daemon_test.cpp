@@ -13,6 +13,7 @@
 
 #include "daemon_test_support.hpp"
 #include "model_source.hpp"
+#include "request_batch.hpp"
 #include "rbdgrad/algorithm/evaluate.hpp"
 
 namespace rbdgrad::server {
@@ -440,18 +441,65 @@ TEST_F(DaemonTest, RefusesAMalformedMessage) {
   expect_still_serving();
 }
 
-TEST_F(DaemonTest, APerStateNumericalFailureFailsTheRequestNamingTheState) {
-  // Q16.16 on the CPU: state 1 spins fast enough to overflow the format
+// The bytes of state k of an output tensor (nv or nv x nv doubles per state).
+std::string state_bytes(const v1::Tensor& t, std::size_t k, std::size_t per_state) {
+  return t.data().substr(k * per_state * sizeof(double), per_state * sizeof(double));
+}
+
+TEST_F(DaemonTest, FixedPointStatesThatLeaveTheRangeAreComputedAgainInFloatingPoint) {
+  // Q16.16 on the CPU: state 1 spins fast enough to overflow the format; the default
+  // fixed_point_fallback (cpu) computes it again, in f64
   v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, 3, 1, "ovf");
   req.set_precision(v1::PRECISION_FIXED);
   for (int i = 0; i < kIiwaNv; ++i) set_value(req.mutable_qd(), 1 * kIiwaNv + i, 200.0);
-  grpc::Status s = compute(req);
+  v1::ComputeResponse resp;
+  grpc::Status s = compute(req, &resp);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(resp.precision(), v1::PRECISION_FIXED);
+  ASSERT_EQ(resp.fallback_states_size(), 1);
+  EXPECT_EQ(resp.fallback_states(0), 1u);
+  EXPECT_EQ(resp.fallback_backend(), v1::BACKEND_CPU);
+  EXPECT_EQ(resp.fallback_precision(), v1::PRECISION_F64);
+
+  // state 1 is the f64 result, states 0 and 2 the fixed-point ones
+  v1::ComputeRequest f64 = req;
+  f64.set_precision(v1::PRECISION_F64);
+  v1::ComputeResponse resp64;
+  ASSERT_TRUE(compute(f64, &resp64).ok());
+  v1::ComputeRequest calm = req;  // state 1 back in range: no fallback
+  for (int i = 0; i < kIiwaNv; ++i) set_value(calm.mutable_qd(), 1 * kIiwaNv + i, 0.5);
+  v1::ComputeResponse resp_fixed;
+  ASSERT_TRUE(compute(calm, &resp_fixed).ok());
+  EXPECT_EQ(resp_fixed.fallback_states_size(), 0);
+  for (v1::Output o : kAllOutputs) {
+    const std::size_t per = is_matrix_output(o) ? kIiwaNv * kIiwaNv : kIiwaNv;
+    const v1::Tensor& got = *response_tensor(resp, o);
+    EXPECT_EQ(state_bytes(got, 1, per), state_bytes(*response_tensor(resp64, o), 1, per)) << o;
+    for (std::size_t k : {0, 2})
+      EXPECT_EQ(state_bytes(got, k, per), state_bytes(*response_tensor(resp_fixed, o), k, per)) << o;
+  }
+}
+
+TEST(DaemonFallback, WithoutAFallbackAnOutOfRangeStateFailsTheRequestNamingIt) {
+  DaemonOptions options = test_options("");
+  options.config.fixed_point_fallback = "";
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, 3, 1, "ovf");
+  req.set_precision(v1::PRECISION_FIXED);
+  for (int i = 0; i < kIiwaNv; ++i) set_value(req.mutable_qd(), 1 * kIiwaNv + i, 200.0);
+  grpc::ClientContext ctx;
+  v1::ComputeResponse resp;
+  const grpc::Status s = stub->Compute(&ctx, req, &resp);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
   EXPECT_THAT(s.error_message(), StartsWith("request 'ovf': cpu: state 1: "));
   EXPECT_THAT(s.error_message(), HasSubstr("fixed-point overflow"));
+}
 
+TEST_F(DaemonTest, APerStateNumericalFailureFailsTheRequestNamingTheState) {
   // the plugin's own codes pass through: NUMERICAL -> OUT_OF_RANGE, UNAVAILABLE -> UNAVAILABLE
-  req = make_request("iiwa14", kIiwaNv, 4, 1, "num", kCudaOutputs);
+  v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, 4, 1, "num", kCudaOutputs);
   req.set_backend(v1::BACKEND_CUDA);
   set_value(req.mutable_u(), 2 * kIiwaNv, 777.0);
   expect_refused(req, grpc::StatusCode::OUT_OF_RANGE, "request 'num': cuda: state 2: scripted numerical failure");

@@ -12,6 +12,10 @@
 namespace rbdgrad::server {
 namespace {
 
+// this host's plugin API version, as the loader's messages write it
+const std::string kHostApi =
+    std::to_string(RBDGRAD_PLUGIN_API_MAJOR) + "." + std::to_string(RBDGRAD_PLUGIN_API_MINOR);
+
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
@@ -147,7 +151,8 @@ TEST(Plugin, MapsEveryPluginErrorCodeAndFreesTheError) {
       {RBDGRAD_ERROR_NUMERICAL, StatusCode::kOutOfRange},
       {RBDGRAD_ERROR_UNAVAILABLE, StatusCode::kUnavailable},
       {RBDGRAD_ERROR_INTERNAL, StatusCode::kInternal},
-      {6, StatusCode::kInternal},
+      {RBDGRAD_ERROR_OUT_OF_RANGE, StatusCode::kOutOfRange},
+      {7, StatusCode::kInternal},
   };
   for (const auto& c : cases) {
     const ErrorCounts before = fake_error_counts();
@@ -164,8 +169,8 @@ TEST(Plugin, UnknownErrorCodeIsKeptInTheMessage) {
   ASSERT_NE(plugin, nullptr);
   const std::unique_ptr<PluginInstance> instance = fake_instance(*plugin);
   ASSERT_NE(instance, nullptr);
-  F64Batch batch(106);
-  EXPECT_EQ(instance->compute(batch.raw).message(), "fake: scripted (unknown plugin error code 6)");
+  F64Batch batch(107);
+  EXPECT_EQ(instance->compute(batch.raw).message(), "fake: scripted (unknown plugin error code 7)");
 }
 
 TEST(Plugin, CanRunPassesOnThePluginsAnswer) {
@@ -241,14 +246,14 @@ TEST(Plugin, RefusesATableOfAnotherMajorNamingBothVersions) {
   const Status status = load_expecting_failure(FAKE_WRONG_MAJOR_PATH);
   EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(status.message(), std::string("plugin ") + FAKE_WRONG_MAJOR_PATH +
-                                  " is built for plugin API 99.0, host plugin API is 1.0 (the majors must match)");
+                                  " is built for plugin API 99.0, host plugin API is " + kHostApi + " (the majors must match)");
 }
 
 TEST(Plugin, ReportsAPluginThatRefusesTheHost) {
   const Status status = load_expecting_failure(FAKE_REFUSES_PATH);
   EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
   EXPECT_EQ(status.message(),
-            std::string("plugin ") + FAKE_REFUSES_PATH + " refused host plugin API 1.0 (it needs another version)");
+            std::string("plugin ") + FAKE_REFUSES_PATH + " refused host plugin API " + kHostApi + " (it needs another version)");
 }
 
 TEST(Plugin, RefusesALibraryWithoutTheEntryPoint) {
@@ -267,7 +272,7 @@ TEST(Plugin, RefusesATableShorterThanVersion1_0) {
   const Status status = load_expecting_failure(FAKE_SMALL_TABLE_PATH);
   EXPECT_EQ(status.code(), StatusCode::kFailedPrecondition);
   EXPECT_THAT(status.message(), StartsWith(std::string("plugin ") + FAKE_SMALL_TABLE_PATH + ": function table is "));
-  EXPECT_THAT(status.message(), HasSubstr("plugin API 1.0 needs at least"));
+  EXPECT_THAT(status.message(), HasSubstr("plugin API " + kHostApi + " needs at least"));
 }
 
 TEST(Plugin, ReportsAMissingFileAsNotFound) {

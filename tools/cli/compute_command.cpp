@@ -176,7 +176,11 @@ std::string write_results(const ComputeOptions& o, const std::string& server, co
   nlohmann::ordered_json header = result_header_json(h);
   // where it was computed (compare_results.py ignores these)
   header["server"] = server;
-  if (!computed.results.empty()) header["backend"] = backend_name(computed.results.front().backend());
+  if (!computed.results.empty()) {
+    const ComputeResult& r = computed.results.front();
+    header["backend"] = backend_name(r.backend());
+    if (!r.backend_mode().empty()) header["backend_mode"] = r.backend_mode();
+  }
   io::ResultWriter writer(out);
   writer.write_header(dump_header(header));
   StateArrays arrays(o.outputs);
@@ -269,8 +273,20 @@ int run_compute_command(int argc, const char* const* argv, int first) {
   if (requests_ok > 0) {
     const ComputeResult& r = computed.results.front();
     auto per_request = [&](double total) { return total / static_cast<double>(requests_ok); };
-    report << "backend " << backend_name(r.backend()) << ", precision " << precision_name(r.precision())
-           << ", outputs sent as " << scalar_type_name(r.output_type()) << "\n";
+    report << "backend " << backend_name(r.backend());
+    if (!r.backend_mode().empty()) report << " (" << r.backend_mode() << ")";
+    report << ", precision " << precision_name(r.precision()) << ", outputs sent as " << scalar_type_name(r.output_type())
+           << "\n";
+    std::size_t fallbacks = 0;
+    const ComputeResult* fell_back = nullptr;
+    for (const ComputeResult& each : computed.results) {
+      fallbacks += each.fallback_states().size();
+      if (!each.fallback_states().empty() && fell_back == nullptr) fell_back = &each;
+    }
+    if (fell_back != nullptr)
+      report << fallbacks << (fallbacks == 1 ? " state" : " states") << " left the fixed-point range and "
+             << (fallbacks == 1 ? "was" : "were") << " computed again on " << backend_name(fell_back->fallback_backend())
+             << " in " << precision_name(fell_back->fallback_precision()) << "\n";
     report << std::fixed << std::setprecision(1);
     report << "server timings" << (requests_ok > 1 ? " (mean per request)" : "") << ": queue "
            << per_request(static_cast<double>(computed.sum.queue_us)) << " us, compute "

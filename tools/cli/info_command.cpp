@@ -41,7 +41,11 @@ int run_info_command(int argc, const char* const* argv, int first) {
       std::cout << "unavailable (" << b.reason << ")\n";
       continue;
     }
-    std::cout << "ready, precisions ";
+    std::cout << "ready";
+    // a stand-in says so before anything else: csim computes like the FPGA, not as fast
+    if (!b.mode.empty()) std::cout << " (" << b.mode << ")";
+    if (!b.device.empty()) std::cout << " on " << b.device;
+    std::cout << ", precisions ";
     for (std::size_t i = 0; i < b.precisions.size(); ++i) std::cout << (i ? ", " : "") << precision_name(b.precisions[i]);
     std::cout << ", max batch " << (b.max_batch ? std::to_string(b.max_batch) : "unlimited") << "\n";
   }

@@ -46,11 +46,19 @@ class RBDGRAD_CLIENT_EXPORT ComputeResult {
   std::uint32_t num_states() const noexcept;  // N
   int nv() const noexcept;
   Backend backend() const noexcept;           // the backend that computed
+  const std::string& backend_mode() const noexcept;  // "" as itself; "csim": the FPGA kernel's C
+                                                     // simulation on the server's CPU
   Precision precision() const noexcept;       // the precision used (never kAuto)
   ScalarType output_type() const noexcept;    // encoding of every output
   std::uint32_t outputs() const noexcept;     // Output bits present
   bool has(Output o) const noexcept;
   const ComputeTimings& timings() const noexcept;
+  // States of a PRECISION_FIXED request that left the Q16.16 range and were computed again on
+  // fallback_backend() in fallback_precision() (ascending; empty when none): their outputs are
+  // that backend's, in its precision.
+  std::span<const std::uint32_t> fallback_states() const noexcept;
+  Backend fallback_backend() const noexcept;      // kAuto when no state fell back
+  Precision fallback_precision() const noexcept;  // kAuto when no state fell back
 
   // Views. The f64 forms need output_type() == kF64, the _f32 forms kF32. They throw
   // std::invalid_argument when the output is absent (not requested) or of the other type, and

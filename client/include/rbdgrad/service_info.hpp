@@ -52,6 +52,9 @@ struct BackendStatus {
   std::string reason;                 // why it is unavailable, when not ready
   std::vector<Precision> precisions;  // what it computes in
   std::uint64_t max_batch = 0;        // largest N per computation; 0 = no limit
+  std::string mode;                   // "" as itself; "csim": the FPGA kernel's C simulation on the
+                                      // server's CPU (the FPGA's arithmetic, not its speed)
+  std::string device;                 // the device it runs on, when the backend names it
 };
 
 // Client::server_info.

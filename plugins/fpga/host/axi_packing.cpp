@@ -11,14 +11,13 @@ namespace {
 
 using DeviceScalar = Q16_16;
 
-// x as a device word, or false when it does not fit
-bool word(double x, DeviceWord& out) {
+}  // namespace
+
+bool to_device_word(double x, DeviceWord& out) {
   const FixedOverflowScope scope;
   out = DeviceScalar(x).raw();
   return !scope.overflowed();
 }
-
-}  // namespace
 
 bool pack_robot(const Model& model, std::vector<DeviceWord>& out, std::string& error) {
   RobotConstants<double, kDeviceMaxNv> robot;
@@ -31,7 +30,7 @@ bool pack_robot(const Model& model, std::vector<DeviceWord>& out, std::string& e
   std::size_t at = 0;
   out[at++] = model.nv;
   auto put = [&](double x, const char* what, int joint) {
-    if (word(x, out[at++])) return true;
+    if (to_device_word(x, out[at++])) return true;
     error = std::string(what) + " of joint " + std::to_string(joint) + " (" + std::to_string(x) +
             ") is outside the FPGA format's range";
     return false;
@@ -53,32 +52,38 @@ bool pack_robot(const Model& model, std::vector<DeviceWord>& out, std::string& e
 
 bool pack_state(int nv, const double* q, const double* qd, const double* u, const double* minv,
                 std::vector<DeviceWord>& out, std::string& error) {
-  const std::size_t n = static_cast<std::size_t>(nv);
   std::vector<DeviceWord> words(static_cast<std::size_t>(AxiLayout::in_words(nv)));
+  if (!pack_state(nv, q, qd, u, minv, words.data(), error)) return false;
+  out.insert(out.end(), words.begin(), words.end());
+  return true;
+}
+
+bool pack_state(int nv, const double* q, const double* qd, const double* u, const double* minv, DeviceWord* words,
+                std::string& error) {
+  const std::size_t n = static_cast<std::size_t>(nv);
   const double* fields[] = {q, nullptr, nullptr, qd, u};
   const char* names[] = {"q", "sin q", "cos q", "qd", "u"};
   for (std::size_t f = 0; f < 5; ++f)
     for (std::size_t i = 0; i < n; ++i) {
       const double x = f == 1 ? std::sin(q[i]) : f == 2 ? std::cos(q[i]) : fields[f][i];
-      if (!word(x, words[f * n + i])) {
+      if (!to_device_word(x, words[f * n + i])) {
         error = std::string(names[f]) + "[" + std::to_string(i) + "] = " + std::to_string(x) +
                 " is outside the FPGA format's range";
         return false;
       }
     }
   for (std::size_t e = 0; e < n * n; ++e)
-    if (!word(minv[e], words[5 * n + e])) {
+    if (!to_device_word(minv[e], words[5 * n + e])) {
       error = "M^-1 element " + std::to_string(e) + " = " + std::to_string(minv[e]) +
               " is outside the FPGA format's range";
       return false;
     }
-  out.insert(out.end(), words.begin(), words.end());
   return true;
 }
 
 bool unpack_state(int nv, const DeviceWord* words, double* qdd, double* dqdd_dq, double* dqdd_dqd) {
   const int n = nv;
-  if (words[n + 2 * n * n] != 0) return false;
+  if (words[n + 2 * n * n] != kStatusOk) return false;
   auto value = [](DeviceWord w) { return DeviceScalar::from_raw(w).to_double(); };
   for (int i = 0; i < n; ++i) qdd[i] = value(words[i]);
   for (int e = 0; e < n * n; ++e) {

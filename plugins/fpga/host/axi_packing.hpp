@@ -21,8 +21,17 @@ bool pack_robot(const Model& model, std::vector<DeviceWord>& out, std::string& e
 bool pack_state(int nv, const double* q, const double* qd, const double* u, const double* minv,
                 std::vector<DeviceWord>& out, std::string& error);
 
+/// The same into `out`'s AxiLayout::in_words(nv) words (a slot of the kernel's input area); no
+/// allocation unless it fails. The words are unspecified after a failure.
+bool pack_state(int nv, const double* q, const double* qd, const double* u, const double* minv, DeviceWord* out,
+                std::string& error);
+
+/// x as a device word, rounded to nearest; false when it is outside the format's range.
+bool to_device_word(double x, DeviceWord& out);
+
 /// One state's results from its output words: qdd (nv), d qdd/d q and d qdd/d qd (nv x nv each).
-/// \return false when the kernel flagged the state out of range (the outputs are then untouched).
+/// \return false when the kernel flagged the state out of range or did not write it (the outputs
+/// are then untouched).
 bool unpack_state(int nv, const DeviceWord* words, double* qdd, double* dqdd_dq, double* dqdd_dqd);
 
 }  // namespace rbdgrad::fpga

@@ -4,8 +4,9 @@
 // robot (once per batch): nv, then per joint: parent, prismatic (0/1), R0 (9, row-major),
 //   p0 (3), spatial inertia (36, row-major); then gravity (3)
 // in (per state):  q, sin q, cos q, qd, u (tau or qdd) (nv each), M^-1 (nv x nv, row-major)
-// out (per state): qdd (nv), d qdd/d q (nv x nv), d qdd/d qd (nv x nv), status (1 word: 0, or 1
-//   when the state left the format's range: its other words are then not a result)
+// out (per state): qdd (nv), d qdd/d q (nv x nv), d qdd/d qd (nv x nv), status (1 word:
+//   kStatusOk, or kStatusOverflow when the state left the format's range: its other words are
+//   then not a result). Not 0: memory the kernel never wrote (zeros) must not read as a result.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +15,8 @@ namespace rbdgrad::fpga {
 
 using DeviceWord = std::int32_t;
 inline constexpr int kDeviceMaxNv = 32;  // the largest model one bitstream takes
+inline constexpr DeviceWord kStatusOk = 0x52420000;  // "RB" in the high half
+inline constexpr DeviceWord kStatusOverflow = kStatusOk | 1;
 
 struct AxiLayout {
   static constexpr int kWordsPerJoint = 2 + 9 + 3 + 36;

@@ -65,6 +65,6 @@ extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_wor
       o[n + e] = dq[e].raw();
       o[n + n * n + e] = dqd[e].raw();
     }
-    o[n + 2 * n * n] = scope.overflowed() ? 1 : 0;
+    o[n + 2 * n * n] = scope.overflowed() ? kStatusOverflow : kStatusOk;
   }
 }

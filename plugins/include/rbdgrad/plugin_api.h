@@ -36,7 +36,7 @@ extern "C" {
 #endif
 
 #define RBDGRAD_PLUGIN_API_MAJOR 1
-#define RBDGRAD_PLUGIN_API_MINOR 0
+#define RBDGRAD_PLUGIN_API_MINOR 1
 
 /* Precisions, usable as bit flags in rbdgrad_plugin_info.precisions. */
 typedef enum rbdgrad_precision {
@@ -70,7 +70,11 @@ typedef enum rbdgrad_error_code {
   RBDGRAD_ERROR_UNSUPPORTED = 2,         /* this backend cannot run this (precision, outputs, N) */
   RBDGRAD_ERROR_NUMERICAL = 3,           /* singular M, overflow, NaN/Inf in a result            */
   RBDGRAD_ERROR_UNAVAILABLE = 4,         /* the device is missing or busy                        */
-  RBDGRAD_ERROR_INTERNAL = 5             /* a bug                                                */
+  RBDGRAD_ERROR_INTERNAL = 5,            /* a bug                                                */
+  /* (1.1) in state_status of a FIXED_Q16_16 batch: the state left the format's range (its outputs
+   * are not a result); the host may compute it again in floating point. Plugins send it only to
+   * hosts of minor >= 1 and NUMERICAL to older ones. */
+  RBDGRAD_ERROR_OUT_OF_RANGE = 6
 } rbdgrad_error_code;
 
 typedef struct rbdgrad_error rbdgrad_error;       /* opaque, owned by the plugin that made it */
@@ -137,6 +141,15 @@ typedef struct rbdgrad_batch {
   int32_t* state_status;    /* optional n entries: 0 = computed, else an rbdgrad_error_code  */
 } rbdgrad_batch;
 
+/* (1.1) What one instance runs on, filled by describe_instance. Strings stay valid while the
+ * instance lives. */
+typedef struct rbdgrad_instance_info {
+  size_t struct_size;  /* set by the caller to sizeof(rbdgrad_instance_info)                        */
+  const char* mode;    /* "" when the backend runs as itself; else how it stands in, e.g. "csim"
+                          (the FPGA kernel's C simulation on the host CPU)                          */
+  const char* device;  /* the device it runs on, for logs: "NVIDIA H200 (device 0)"; "" = unnamed  */
+} rbdgrad_instance_info;
+
 typedef struct rbdgrad_plugin_api {
   size_t struct_size;   /* sizeof(rbdgrad_plugin_api) as the plugin was built */
   uint32_t api_major;   /* RBDGRAD_PLUGIN_API_MAJOR the plugin was built with */
@@ -165,6 +178,9 @@ typedef struct rbdgrad_plugin_api {
   uint32_t (*error_code)(const rbdgrad_error* error);       /* an rbdgrad_error_code; 0 for NULL */
   const char* (*error_message)(const rbdgrad_error* error); /* valid until error_delete */
   void (*error_delete)(rbdgrad_error* error);
+
+  /* (1.1) Describes an instance; may be NULL (nothing to say). Any thread, any time. */
+  rbdgrad_error* (*describe_instance)(const rbdgrad_instance* instance, rbdgrad_instance_info* info);
 } rbdgrad_plugin_api;
 
 /* The one exported symbol. Returns NULL when the host's API version is not compatible. */

@@ -176,8 +176,11 @@ void check_robot(const std::string& robot, Tally& tally) {
           }
         }
         for (std::size_t k = 0; k < kStates; ++k) {
+          // a fixed-point state out of range is OUT_OF_RANGE, for the server's floating-point fallback
           const std::int32_t expected_status =
-              ref_status[k] ? 0 : static_cast<std::int32_t>(plugin::error_code_from_status(ref_status[k].code()));
+              ref_status[k] ? 0
+                            : static_cast<std::int32_t>(
+                                  plugin::state_error_code(ref_status[k].code(), plugin::precision_of<S>()));
           ASSERT_EQ(a.state_status[k], expected_status) << where << " state " << k << ": " << ref_status[k].message();
           if (t == 0) ++(ref_status[k] ? tally.computed : tally.refused);
           if (!ref_status[k]) continue;

@@ -71,7 +71,7 @@ void check_robot(const std::string& robot, bool tau_input) {
     fd_gradient(*constants, q.data(), s.data(), c.data(), qd.data(), u.data(), tau_input, minv.data(), *scratch,
                 qdd.data(), dq.data(), dqd.data());
     const DeviceWord* o = out.data() + static_cast<std::size_t>(k * AxiLayout::out_words(n));
-    ASSERT_EQ(o[n + 2 * n * n], scope.overflowed() ? 1 : 0) << robot << " state " << k;
+    ASSERT_EQ(o[n + 2 * n * n], scope.overflowed() ? kStatusOverflow : kStatusOk) << robot << " state " << k;
     flagged += scope.overflowed();
     for (int e = 0; e < n * n; ++e) {
       ASSERT_EQ(o[n + e], dq[e].raw()) << robot << " state " << k << " d qdd/d q " << e;

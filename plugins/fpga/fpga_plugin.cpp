@@ -1,0 +1,172 @@
+// The FPGA backend's plugin table: the fixed-point gradient kernel (kernel/) on an FPGA card
+// through XRT, or, with the option emulation=csim, its C simulation on the host CPU, which
+// computes the same Q16.16 arithmetic and says so (describe_instance mode "csim"). Without a card,
+// an xclbin or XRT, every instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "common/batch_view.hpp"
+#include "common/error.hpp"
+#include "common/host_api.hpp"
+#include "common/model_desc.hpp"
+#include "common/options.hpp"
+#include "host/csim_runner.hpp"
+#include "host/fpga_instance.hpp"
+#include "rbdgrad/plugin_api.h"
+#ifdef RBDGRAD_HAVE_XRT
+#include "host/xrt_runner.hpp"
+#endif
+
+#ifndef RBDGRAD_VERSION
+#define RBDGRAD_VERSION "unknown"
+#endif
+
+// Completes the ABI's opaque instance type for this plugin.
+struct rbdgrad_instance {
+  std::unique_ptr<rbdgrad::fpga::FpgaInstance> fpga;
+};
+
+namespace rbdgrad::plugin {
+namespace {
+
+// the oldest host minor this plugin works with: describe_instance and OUT_OF_RANGE are extras
+constexpr std::uint32_t kMinHostMinor = 0;
+constexpr std::uint32_t kPrecisions = RBDGRAD_PRECISION_FIXED_Q16_16;
+// states per kernel run: enough to keep the pipeline busy, few enough that double buffering
+// overlaps most of a batch's packing (docs/fpga.md)
+constexpr std::uint64_t kDefaultChunkStates = 64;
+constexpr std::uint64_t kMaxChunkStates = 65536;
+constexpr std::uint64_t kDefaultTimeoutMs = 10000;
+
+rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
+  return guarded([&]() -> Status {
+    if (info == nullptr) return invalid_argument("info is NULL");
+    if (info->struct_size < sizeof(rbdgrad_plugin_info))
+      return invalid_argument("info.struct_size is " + std::to_string(info->struct_size) + ", expected at least " +
+                              std::to_string(sizeof(rbdgrad_plugin_info)));
+    info->name = "fpga";
+    info->version = RBDGRAD_VERSION;
+    info->precisions = kPrecisions;
+    info->outputs = fpga::kFpgaOutputs;
+    info->max_batch = 0;  // chunked
+    info->max_nv = static_cast<std::uint32_t>(fpga::kDeviceMaxNv);
+    return Status::ok();
+  });
+}
+
+rbdgrad_error* can_run(const rbdgrad_model_desc* model, std::uint32_t precision, std::uint32_t outputs, std::uint64_t n) {
+  return guarded([&]() -> Status {
+    if (model == nullptr) return invalid_argument("model is NULL");
+    if (model->struct_size < sizeof(rbdgrad_model_desc))
+      return invalid_argument("model_desc.struct_size is " + std::to_string(model->struct_size) + ", expected at least " +
+                              std::to_string(sizeof(rbdgrad_model_desc)));
+    if (model->nv < 1) return invalid_argument("model_desc.nv is 0");
+    if (n < 1) return invalid_argument("n is 0: a batch holds at least one state");
+    if (Status s = check_request(precision, outputs, kPrecisions, fpga::kFpgaOutputs); !s) return s;
+    if (model->nv > static_cast<std::uint32_t>(fpga::kDeviceMaxNv))
+      return unimplemented("model has " + std::to_string(model->nv) + " joints, more than the " +
+                           std::to_string(fpga::kDeviceMaxNv) + " the FPGA kernel takes");
+    return Status::ok();
+  });
+}
+
+rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_options* options,
+                               rbdgrad_instance** instance) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr) return invalid_argument("instance is NULL");
+    *instance = nullptr;
+    if (desc == nullptr) return invalid_argument("model is NULL");
+    // emulation: "csim" runs the kernel's C simulation on the host; "none" (default) needs a card.
+    // device: the card's index or PCIe BDF (default 0); xclbin: its bitstream.
+    // chunk_states: states per kernel run (double-buffered); timeout_ms: for one run.
+    if (Status s = check_options(options, {"emulation", "device", "xclbin", "chunk_states", "timeout_ms"}); !s)
+      return s;
+    const char* emulation = find_option(options, "emulation");
+    const std::string mode = emulation != nullptr ? emulation : "none";
+    if (mode != "csim" && mode != "none")
+      return invalid_argument("option 'emulation' is '" + mode + "': expected 'csim' or 'none'");
+    std::uint64_t chunk = kDefaultChunkStates;
+    if (Status s = option_uint(options, "chunk_states", 1, kMaxChunkStates, chunk); !s) return s;
+    std::uint64_t timeout_ms = kDefaultTimeoutMs;
+    if (Status s = option_uint(options, "timeout_ms", 1, std::uint64_t{1} << 31, timeout_ms); !s) return s;
+    Model model;
+    if (Status s = model_from_desc(*desc, model); !s) return s;
+    if (model.nv > fpga::kDeviceMaxNv)
+      return unimplemented("model has " + std::to_string(model.nv) + " joints, more than the " +
+                           std::to_string(fpga::kDeviceMaxNv) + " the FPGA kernel takes");
+
+    std::unique_ptr<fpga::KernelRunner> runner;
+    if (mode == "csim") {
+      runner = std::make_unique<fpga::CsimRunner>(model.nv, static_cast<std::size_t>(chunk));
+    } else {
+#ifdef RBDGRAD_HAVE_XRT
+      fpga::XrtRunnerOptions xrt;
+      if (const char* d = find_option(options, "device")) xrt.device = d;
+      if (const char* x = find_option(options, "xclbin")) xrt.xclbin = x;
+      xrt.timeout = std::chrono::milliseconds(static_cast<std::int64_t>(timeout_ms));
+      if (Status s = fpga::make_xrt_runner(xrt, model.nv, static_cast<std::size_t>(chunk), runner); !s) return s;
+#else
+      return unavailable("this build has no XRT (libxrt-dev was not found): no FPGA; set 'emulation: csim' to run "
+                         "the kernel's C simulation");
+#endif
+    }
+    auto made = std::make_unique<rbdgrad_instance>();
+    if (Status s = fpga::FpgaInstance::create(model, std::move(runner), static_cast<std::size_t>(chunk), made->fpga);
+        !s)
+      return s;
+    *instance = made.release();
+    return Status::ok();
+  });
+}
+
+rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr || !instance->fpga) return invalid_argument("instance is NULL");
+    return instance->fpga->compute(batch);
+  });
+}
+
+void destroy_instance(rbdgrad_instance* instance) {
+  guarded([&] { delete instance; });
+}
+
+rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_instance_info* info) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr || !instance->fpga) return invalid_argument("instance is NULL");
+    if (info == nullptr) return invalid_argument("info is NULL");
+    if (info->struct_size < sizeof(rbdgrad_instance_info))
+      return invalid_argument("instance_info.struct_size is " + std::to_string(info->struct_size) +
+                              ", expected at least " + std::to_string(sizeof(rbdgrad_instance_info)));
+    info->mode = instance->fpga->runner().mode();
+    info->device = instance->fpga->runner().device().c_str();
+    return Status::ok();
+  });
+}
+
+constexpr rbdgrad_plugin_api kApi = {
+    sizeof(rbdgrad_plugin_api),
+    RBDGRAD_PLUGIN_API_MAJOR,
+    RBDGRAD_PLUGIN_API_MINOR,
+    &get_info,
+    &can_run,
+    &create_instance,
+    &compute,
+    &destroy_instance,
+    &error_code,
+    &error_message,
+    &error_delete,
+    &describe_instance,
+};
+
+}  // namespace
+}  // namespace rbdgrad::plugin
+
+// The one exported symbol (exports.map hides everything else).
+extern "C" __attribute__((visibility("default"))) const rbdgrad_plugin_api* rbdgrad_plugin_entry(
+    std::uint32_t host_api_major, std::uint32_t host_api_minor) {
+  if (!rbdgrad::plugin::host_api_compatible("fpga", host_api_major, host_api_minor, rbdgrad::plugin::kMinHostMinor)) {
+    return nullptr;
+  }
+  return &rbdgrad::plugin::kApi;
+}
