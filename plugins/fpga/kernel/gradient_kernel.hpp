@@ -19,7 +19,7 @@
 // (FixedOverflowScope in the caller), so an out-of-range state is never silently wrong.
 //
 // gradient_top.cpp is the top function around it (the AXI ports, a batch of states); the host
-// plugin and the latency model are still to come (issue 5).
+// drives it (host/fpga_instance.cpp) and host/latency_model.hpp counts its cycles.
 #pragma once
 
 #include <cstdint>

@@ -56,8 +56,9 @@ extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_wor
     for (int e = 0; e < n * n; ++e) minv[e] = scalar(w[5 * n + e]);
     DeviceScalar qdd[kDeviceMaxNv], dq[kDeviceMaxNv * kDeviceMaxNv], dqd[kDeviceMaxNv * kDeviceMaxNv];
     // In C simulation the overflow status of the scalar type says whether the state left the
-    // range. On hardware the same flag is to come from range checks on the wide intermediates
-    // (ap_fixed saturates without telling): not designed yet.
+    // range. ap_fixed saturates without telling: on hardware the flag is to come from comparing
+    // every stored value with the format's bounds (docs/fpga.md, "Overflow is never silent"),
+    // which is designed but waits for synthesis.
     const rbdgrad::FixedOverflowScope scope;
     fd_gradient(robot, q, s, c, qd, u, tau_input != 0, minv, state, qdd, dq, dqd);
     for (int i = 0; i < n; ++i) o[i] = qdd[i].raw();
