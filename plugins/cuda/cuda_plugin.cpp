@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "common/batch_view.hpp"
+#include "common/entry_checks.hpp"
 #include "common/error.hpp"
 #include "common/host_api.hpp"
 #include "common/model_desc.hpp"
@@ -34,10 +35,7 @@ constexpr std::uint64_t kMaxWorkspaceMib = std::uint64_t{1} << 20;
 
 rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
   return guarded([&]() -> Status {
-    if (info == nullptr) return invalid_argument("info is NULL");
-    if (info->struct_size < sizeof(rbdgrad_plugin_info))
-      return invalid_argument("info.struct_size is " + std::to_string(info->struct_size) + ", expected at least " +
-                              std::to_string(sizeof(rbdgrad_plugin_info)));
+    if (Status s = check_info(info); !s) return s;
     info->name = "cuda";
     info->version = RBDGRAD_VERSION;
     info->precisions = kPrecisions;
@@ -51,12 +49,7 @@ rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
 // The request first (cheap), then the model's size, then whether there is a GPU at all.
 rbdgrad_error* can_run(const rbdgrad_model_desc* model, std::uint32_t precision, std::uint32_t outputs, std::uint64_t n) {
   return guarded([&]() -> Status {
-    if (model == nullptr) return invalid_argument("model is NULL");
-    if (model->struct_size < sizeof(rbdgrad_model_desc))
-      return invalid_argument("model_desc.struct_size is " + std::to_string(model->struct_size) + ", expected at least " +
-                              std::to_string(sizeof(rbdgrad_model_desc)));
-    if (model->nv < 1) return invalid_argument("model_desc.nv is 0");
-    if (n < 1) return invalid_argument("n is 0: a batch holds at least one state");
+    if (Status s = check_can_run_question(model, n); !s) return s;
     if (Status s = check_request(precision, outputs, kPrecisions, kAllOutputs); !s) return s;
     if (model->nv > static_cast<std::uint32_t>(cuda::kMaxNv))
       return unimplemented("model has " + std::to_string(model->nv) + " joints, more than the " +

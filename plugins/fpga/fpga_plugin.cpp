@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common/batch_view.hpp"
+#include "common/entry_checks.hpp"
 #include "common/error.hpp"
 #include "common/host_api.hpp"
 #include "common/model_desc.hpp"
@@ -41,10 +42,7 @@ constexpr std::uint64_t kDefaultTimeoutMs = 10000;
 
 rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
   return guarded([&]() -> Status {
-    if (info == nullptr) return invalid_argument("info is NULL");
-    if (info->struct_size < sizeof(rbdgrad_plugin_info))
-      return invalid_argument("info.struct_size is " + std::to_string(info->struct_size) + ", expected at least " +
-                              std::to_string(sizeof(rbdgrad_plugin_info)));
+    if (Status s = check_info(info); !s) return s;
     info->name = "fpga";
     info->version = RBDGRAD_VERSION;
     info->precisions = kPrecisions;
@@ -57,12 +55,7 @@ rbdgrad_error* get_info(rbdgrad_plugin_info* info) {
 
 rbdgrad_error* can_run(const rbdgrad_model_desc* model, std::uint32_t precision, std::uint32_t outputs, std::uint64_t n) {
   return guarded([&]() -> Status {
-    if (model == nullptr) return invalid_argument("model is NULL");
-    if (model->struct_size < sizeof(rbdgrad_model_desc))
-      return invalid_argument("model_desc.struct_size is " + std::to_string(model->struct_size) + ", expected at least " +
-                              std::to_string(sizeof(rbdgrad_model_desc)));
-    if (model->nv < 1) return invalid_argument("model_desc.nv is 0");
-    if (n < 1) return invalid_argument("n is 0: a batch holds at least one state");
+    if (Status s = check_can_run_question(model, n); !s) return s;
     if (Status s = check_request(precision, outputs, kPrecisions, fpga::kFpgaOutputs); !s) return s;
     if (model->nv > static_cast<std::uint32_t>(fpga::kDeviceMaxNv))
       return unimplemented("model has " + std::to_string(model->nv) + " joints, more than the " +
@@ -135,9 +128,8 @@ rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_insta
   return guarded([&]() -> Status {
     if (instance == nullptr || !instance->fpga) return invalid_argument("instance is NULL");
     if (info == nullptr) return invalid_argument("info is NULL");
-    if (info->struct_size < sizeof(rbdgrad_instance_info))
-      return invalid_argument("instance_info.struct_size is " + std::to_string(info->struct_size) +
-                              ", expected at least " + std::to_string(sizeof(rbdgrad_instance_info)));
+    if (Status st = check_struct_size("instance_info", info->struct_size, sizeof(rbdgrad_instance_info)); !st)
+      return st;
     info->mode = instance->fpga->runner().mode();
     info->device = instance->fpga->runner().device().c_str();
     return Status::ok();
