@@ -28,6 +28,7 @@ TEST(ServerConfigTest, DefaultsAreTheDocumentedValues) {
   EXPECT_TRUE(cfg.plugins.empty());
   EXPECT_EQ(cfg.workers, 0);
   EXPECT_EQ(cfg.inline_max_states, 128);
+  EXPECT_EQ(cfg.fixed_point_fallback, "cpu");
   EXPECT_EQ(cfg.limits.max_states_per_request, 65536);
   EXPECT_EQ(cfg.limits.max_message_bytes, 256 * 1024 * 1024);
   EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
@@ -45,6 +46,7 @@ TEST(ServerConfigTest, DefaultYamlEqualsBuiltInDefaults) {
   cfg.plugins = {PluginConfig{"/p.so", {}}};
   cfg.workers = 7;
   cfg.inline_max_states = 9;
+  cfg.fixed_point_fallback = "";
   cfg.limits = {1, 2, 3, 4};
   cfg.log_level = LogLevel::kError;
   const Status s = parse_config(text, "default.yaml", cfg);
@@ -129,6 +131,7 @@ TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
   const Status s = parse_config(
       "workers: 12\n"
       "inline_max_states: 0\n"
+      "fixed_point_fallback: \"\"\n"
       "limits:\n"
       "  max_states_per_request: 1024\n"
       "  max_queue_delay_us: 500\n"
@@ -137,12 +140,20 @@ TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
   ASSERT_TRUE(s.is_ok()) << s.to_string();
   EXPECT_EQ(cfg.workers, 12);
   EXPECT_EQ(cfg.inline_max_states, 0);
+  EXPECT_EQ(cfg.fixed_point_fallback, "");  // none: out-of-range states fail their request
   EXPECT_EQ(cfg.limits.max_states_per_request, 1024);
   EXPECT_EQ(cfg.limits.max_queue_delay_us, 500);
   // keys the file leaves out keep their defaults
   EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
   EXPECT_EQ(cfg.listen, ListenConfig{});
   EXPECT_EQ(cfg.log_level, LogLevel::kDebug);
+}
+
+TEST(ServerConfigTest, FixedPointFallbackMustBeAString) {
+  ServerConfig cfg;
+  const Status s = parse_config("fixed_point_fallback: [cpu]\n", "t", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_NE(s.message().find("fixed_point_fallback"), std::string::npos) << s.message();
 }
 
 TEST(ServerConfigTest, UnknownKeyIsNamedWithItsPath) {
