@@ -128,6 +128,7 @@ Status CudaInstance::init() {
   slots_ = std::min(resident, workspace_bytes_ / slot_bytes) / block * block;
   slots_ = std::max(slots_, block);
   max_shared_bytes_ = prop.sharedMemPerBlockOptin;
+  device_name_ = std::string(prop.name) + " (device " + std::to_string(device_) + ")";
   if (Status s = cuda_status(allow_block_shared_bytes<double>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
   if (Status s = cuda_status(allow_block_shared_bytes<float>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
   // zero-filled: entries outside the tree's sparsity are never written, and must read as zero

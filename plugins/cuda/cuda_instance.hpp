@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <string>
 
 #include "block_launch.hpp"
 #include "device/fused_state.hpp"
@@ -89,6 +90,8 @@ class CudaInstance {
   int last_pinned_arrays() const { return last_pinned_; }
 
   int device() const { return device_; }
+  /// "NVIDIA H200 (device 0)": for logs (describe_instance).
+  const std::string& device_name() const { return device_name_; }
   std::size_t slots() const { return slots_; }
   /// The kernel's own time in the last successful compute(), from CUDA events around the launch
   /// (resolution about 0.5 us): the benchmarks' kernel-only figure. 0 before the first.
@@ -104,6 +107,7 @@ class CudaInstance {
 
   Model model_;
   int device_;
+  std::string device_name_;
   std::size_t workspace_bytes_;
   cudaStream_t streams_[2] = {};  // chunks alternate between them
   cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch

@@ -116,6 +116,17 @@ void destroy_instance(rbdgrad_instance* instance) {
   guarded([&] { delete instance; });
 }
 
+rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_instance_info* info) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr || !instance->gpu) return invalid_argument("instance is NULL");
+    if (info == nullptr) return invalid_argument("info is NULL");
+    if (Status s = check_struct_size("instance_info", info->struct_size, sizeof(rbdgrad_instance_info)); !s) return s;
+    info->mode = "";
+    info->device = instance->gpu->device_name().c_str();
+    return Status::ok();
+  });
+}
+
 constexpr rbdgrad_plugin_api kApi = {
     sizeof(rbdgrad_plugin_api),
     RBDGRAD_PLUGIN_API_MAJOR,
@@ -128,7 +139,7 @@ constexpr rbdgrad_plugin_api kApi = {
     &error_code,
     &error_message,
     &error_delete,
-    nullptr,  // describe_instance: nothing beyond the plugin's name to say
+    &describe_instance,
 };
 
 }  // namespace

@@ -193,6 +193,19 @@ INSTANTIATE_TEST_SUITE_P(Robots, CudaConformance,
                          [](const auto& param_info) { return std::string(param_info.param); });
 
 // A small batch, every case: the target of compute-sanitizer (memcheck, racecheck) runs.
+TEST(CudaPlugin, InstanceNamesItsGpu) {
+  SKIP_WITHOUT_GPU();
+  InstancePtr instance = create(api(), iiwa().desc(), {{"device", "0"}});
+  ASSERT_TRUE(instance);
+  rbdgrad_instance_info info{};
+  info.struct_size = sizeof(info);
+  ASSERT_FALSE(take(api(), api()->describe_instance(instance.get(), &info)));
+  EXPECT_STREQ(info.mode, "");  // the GPU itself
+  const std::string device = info.device;
+  EXPECT_GT(device.size(), std::string(" (device 0)").size()) << device;
+  EXPECT_EQ(device.substr(device.size() - 11), " (device 0)") << device;
+}
+
 TEST(CudaSmallBatch, Iiwa14F64SevenStates) {
   SKIP_WITHOUT_GPU();
   const Model model = load_embedded("iiwa14");
