@@ -126,9 +126,12 @@ Kernel thread_kernel() {
   k.options.block_max_states = 0;
   return k;
 }
-// the block kernel in its default shape and I/O, or with copies at every size
+// the plugin's defaults: the kernel, its shape and the I/O chosen by batch and model
+Kernel default_kernel() { return {"default", {}}; }
+// the block kernel at every size, in its default shape and I/O or with copies at every size
 Kernel block_kernel(bool mapped_io) {
   Kernel k{mapped_io ? "block" : "block-copy", {}};
+  k.options.f32_thread_kernel_min_states = 0;
   if (!mapped_io) k.options.mapped_io_max_kib = 0;
   return k;
 }
@@ -190,19 +193,20 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
       ->Unit(benchmark::kMicrosecond)->UseRealTime()->Repetitions(5)->ReportAggregatesOnly(true);
 }
 
-// cuda_e2e: the anchors' sizes with the defaults (the block kernel, copies skipped for small
-// batches), the caller's arrays pinned (the anchors' pinned columns) and pageable; then copies at
-// every size, and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to
+// cuda_e2e: the anchors' sizes with the plugin's defaults (the kernel chosen by size, copies
+// skipped for small batches), the caller's arrays pinned (the anchors' pinned columns) and
+// pageable; then the block kernel with copies at every size, and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to
 // choose the default by measurement.
 const bool registered = [] {
-  const Kernel kernels[] = {block_kernel(true), block_kernel(false), thread_kernel()};
+  const Kernel kernels[] = {default_kernel(), block_kernel(false), thread_kernel()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const Kernel& kernel : kernels)
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
-        // the one-thread kernel (the first increment) at three sizes, for comparison
-        if (kernel.name == "thread" && n != 16 && n != 1024 && n != 65536) continue;
+        // the one-thread kernel (the first increment) at one small size and from 1024 on, where
+        // it competes (the choice between the kernels is measured there)
+        if (kernel.name == "thread" && n != 16 && n < 1024) continue;
         for (const bool pinned_memory : {true, false}) {
-          if (kernel.name != "block" && !pinned_memory) continue;
+          if (kernel.name != "default" && !pinned_memory) continue;
           add<float>("cuda_e2e", robot, n, kernel, pinned_memory);
           add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
         }
@@ -214,10 +218,15 @@ const bool registered = [] {
         const std::string name = "cuda_concurrent/" + std::to_string(threads) + "_instances/f64/" + robot + "/N" +
                                  std::to_string(n);
         benchmark::RegisterBenchmark(name.c_str(), cuda_e2e<double>, robot, n, RBDGRAD_PRECISION_F64,
-                                     block_kernel(true), true)
+                                     default_kernel(), true)
             ->Unit(benchmark::kMicrosecond)->UseRealTime()->Threads(threads)->Repetitions(5)
             ->ReportAggregatesOnly(true);
       }
+  // cuda_choice: the two kernels on the large f32 batches where the one-thread kernel can win,
+  // over models of several sizes (the block_kernel_wins rule in cuda_instance.cpp)
+  for (const char* robot : {"iiwa14", "panda", "hyq"})
+    for (std::size_t n : {32768, 65536})
+      for (const Kernel& kernel : {block_kernel(true), thread_kernel()}) add<float>("cuda_choice", robot, n, kernel);
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const auto& [tps, spb] : shapes)

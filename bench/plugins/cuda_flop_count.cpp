@@ -89,8 +89,10 @@ counting::Counts count_state(const rbdgrad::Model& model) {
   std::vector<S> shared(rbdgrad::cuda::BlockWorkspace<S>::scalars(model.nv, with_aba));
   const rbdgrad::cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
   counting::counts = {};
-  for (std::size_t k = 0; k < kStates; ++k)
+  for (std::size_t k = 0; k < kStates; ++k) {
+    rbdgrad::cuda::block_load_inputs(flat.host_view().nv, w, b, k, rbdgrad::cuda::ThreadGroup{});
     rbdgrad::cuda::block_evaluate_state(flat.host_view(), w, b, k, true, rbdgrad::cuda::ThreadGroup{});
+  }
   for (std::uint32_t s : status)
     if (s != 0) std::fprintf(stderr, "warning: a state failed (status %u)\n", s);
   counting::Counts per = counting::counts;

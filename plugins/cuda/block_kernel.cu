@@ -3,6 +3,17 @@
 #include "block_launch.hpp"
 
 namespace rbdgrad::cuda {
+
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+// the clocks of state 0's group: [0] at the kernel's entry, [1] before the first pass (after the
+// inputs and the robot's constants are loaded), [k + 1] after the k-th sync
+__device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
+
+cudaError_t read_block_pass_clocks(long long* out, int count) {
+  return cudaMemcpyFromSymbol(out, g_block_pass_clocks, sizeof(long long) * static_cast<std::size_t>(count));
+}
+#endif
+
 namespace {
 
 template <class S>
@@ -16,10 +27,9 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<S> b
   int* model_ints = reinterpret_cast<int*>(model_scalars + scalars);
   const int threads = static_cast<int>(blockDim.x * blockDim.y);
   const int tid = static_cast<int>(threadIdx.y * blockDim.x + threadIdx.x);
-  for (int e = tid; e < scalars; e += threads) model_scalars[e] = global_model.joint_rotation[e];
-  for (int e = tid; e < ints; e += threads) model_ints[e] = global_model.parent[e];
-  __syncthreads();
-  const ModelView<S> model = model_view(nv, global_model.levels, model_scalars, model_ints, global_model.gravity);
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+  if (blockIdx.x == 0 && tid == 0) g_block_pass_clocks[0] = clock64();
+#endif
 
   const bool with_aba = block_uses_aba<S>(batch.tau_input);
   S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv)) +
@@ -32,6 +42,19 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<S> b
   g.warp_sync = blockDim.x <= 32 && 32 % blockDim.x == 0 && (blockDim.x * blockDim.y) % 32 == 0;
   const std::uint64_t k = static_cast<std::uint64_t>(blockIdx.x) * blockDim.y + threadIdx.y;
   const bool active = k < batch.n;
+  // the state's inputs first: their reads (host memory over PCIe for small batches) overlap the
+  // constants' below
+  block_load_inputs(nv, w, batch, active ? k : batch.n - 1, g);
+  for (int e = tid; e < scalars; e += threads) model_scalars[e] = global_model.joint_rotation[e];
+  for (int e = tid; e < ints; e += threads) model_ints[e] = global_model.parent[e];
+  __syncthreads();
+  const ModelView<S> model = model_view(nv, global_model.levels, model_scalars, model_ints, global_model.gravity);
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+  if (k == 0) {
+    g.clocks = g_block_pass_clocks + 2;
+    if (g.rank == 0) g_block_pass_clocks[1] = clock64();
+  }
+#endif
   block_evaluate_state(model, w, batch, active ? k : batch.n - 1, active, g);
 }
 

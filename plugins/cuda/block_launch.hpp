@@ -56,6 +56,12 @@ cudaError_t allow_block_shared_bytes(std::size_t bytes);
 /// Enqueues the kernel on `stream` for every state of `batch` (block_kernel_supports(batch), its
 /// shared memory within what allow_block_shared_bytes allowed; `shape` resolved).
 /// \return the launch error, if any (execution errors show at the next synchronisation).
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+/// Measurement builds: the SM clock of state 0's group before the first pass and after each
+/// sync of the last launch (count <= ThreadGroup::kMaxPassClocks).
+cudaError_t read_block_pass_clocks(long long* out, int count);
+#endif
+
 template <class S>
 cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
                                cudaStream_t stream);

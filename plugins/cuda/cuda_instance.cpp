@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 #include "common/batch_view.hpp"
 #include "common/error.hpp"
@@ -165,6 +166,10 @@ Status CudaInstance::set_kernel_options(const KernelOptions& options) {
 
 template <class S>
 bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const {
+  // large f32 batches of small models: more states resident at once in the one-thread kernel
+  if (std::is_same_v<S, float> && model_.nv <= kThreadKernelMaxNv && kernel_.f32_thread_kernel_min_states > 0 &&
+      n >= kernel_.f32_thread_kernel_min_states)
+    return false;
   return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
          block_shared_bytes<S>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv, n)) <=
              max_shared_bytes_;

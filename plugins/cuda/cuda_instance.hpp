@@ -38,6 +38,15 @@ inline constexpr std::size_t kMaxChunks = 4;
 // block_max_states); larger ones, and every other request, go to the one-thread kernel.
 inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
 
+// f32 gradient batches of at least this many states on models of at most kThreadKernelMaxNv
+// joints go to the one-thread kernel (the plugin's option f32_thread_kernel_min_states; 0:
+// never). Measured on the H200, end to end (docs/benchmarks/cuda.md): at 65536 states the
+// one-thread kernel wins for iiwa14, panda and hyq (nv 7, 9, 12: 1866 against 2339 us, 2861
+// against 3718, 3029 against 3951); at 32768 the block kernel wins for iiwa14 and panda, and for
+// talos_reduced (nv 32) at every size; in f64 the block kernel wins everywhere.
+inline constexpr std::size_t kDefaultF32ThreadKernelMinStates = 65536;
+inline constexpr int kThreadKernelMaxNv = 16;
+
 // Batches whose inputs and outputs together take up to this many KiB skip the copies: the kernel
 // reads its inputs from the pinned host block and writes its outputs into the other one, over
 // PCIe (the plugin's option mapped_io_max_kib). On the H200 that is faster for iiwa14 up to 256
@@ -49,6 +58,7 @@ inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
 /// (plugin options of the same names; mapped_io_max_kib 0: none).
 struct KernelOptions {
   std::size_t block_max_states = kDefaultBlockMaxStates;
+  std::size_t f32_thread_kernel_min_states = kDefaultF32ThreadKernelMinStates;
   BlockShape block_shape;
   std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
 };

@@ -69,9 +69,11 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // block_max_states: the block kernel takes gradient requests of up to this many states (0:
     // never); threads_per_state (0: by the model's size), states_per_block: its block shape.
     // mapped_io_max_kib: batches whose inputs and outputs take up to this many KiB skip the
-    // device copies (the kernel works on pinned host memory).
+    // device copies (the kernel works on pinned host memory). f32_thread_kernel_min_states: f32
+    // gradient batches of at least this many states on small models run the one-thread kernel
+    // (0: never).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
-                                           "states_per_block", "mapped_io_max_kib"});
+                                           "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states"});
         !s)
       return s;
     std::uint64_t device = 0;
@@ -83,12 +85,16 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     std::uint64_t tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state);
     std::uint64_t spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block);
     std::uint64_t mapped_max = kernel.mapped_io_max_kib;
+    std::uint64_t f32_thread_min = kernel.f32_thread_kernel_min_states;
     if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
     if (Status s = option_uint(options, "threads_per_state", 0, 1024, tps); !s) return s;
     if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;
     if (Status s = option_uint(options, "mapped_io_max_kib", 0, std::uint64_t{1} << 30, mapped_max); !s)
       return s;
+    if (Status s = option_uint(options, "f32_thread_kernel_min_states", 0, std::uint64_t{1} << 40, f32_thread_min); !s)
+      return s;
     kernel.block_max_states = static_cast<std::size_t>(block_max);
+    kernel.f32_thread_kernel_min_states = static_cast<std::size_t>(f32_thread_min);
     kernel.mapped_io_max_kib = static_cast<std::size_t>(mapped_max);
     kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;

@@ -112,9 +112,24 @@ RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
 
 }  // namespace block
 
+// Reads the state's inputs q, qd and u into w.q, w.qd, w.u, each by the thread that uses it in the
+// first pass. The kernel does it before it loads the robot's constants, so that the two reads'
+// latencies (the inputs may be host memory, over PCIe) overlap.
+template <class S>
+RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const BatchPointers<S>& b, std::uint64_t state,
+                                  const ThreadGroup& g) {
+  const std::uint64_t vec = static_cast<std::uint64_t>(n);
+  g.for_each(n, [&](int i) {
+    w.q[i] = b.q[state * vec + i];
+    w.qd[i] = b.qd[state * vec + i];
+    w.u[i] = b.u[state * vec + i];
+  });
+}
+
 // Computes `state` of b (block_kernel_supports(b)) with the group's threads and writes its outputs
 // and status; an inactive group (past the end of the batch) runs on `state` for the syncs' sake and
-// writes nothing.
+// writes nothing. The inputs are in w.q, w.qd and w.u already (block_load_inputs, by the same
+// threads).
 template <class S>
 RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
@@ -130,13 +145,9 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   const block::Divider by_n(n);
 
   if (g.rank == 0) *w.status = *w.not_finite = 0;
-  // the inputs (read once: they may be host memory, over PCIe), and the joint transforms in the
-  // parent frames
+  // the joint transforms in the parent frames
   g.for_each(n, [&](int i) {
-    const S qi = b.q[state * vec + i];
-    w.q[i] = qi;
-    w.qd[i] = b.qd[state * vec + i];
-    w.u[i] = b.u[state * vec + i];
+    const S qi = w.q[i];
     if (!b.tau_input) w.qdd[i] = w.u[i];
     const S* R0 = m.joint_rotation + 9 * i;
     S* Rl = w.R_local + 9 * i;
@@ -227,8 +238,19 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   });
   g.sync();
   // spatial inertias at the world origin (centre of mass c + p) and, for the articulated-body
-  // pass, at the joint point (c), entry by entry as spatial_inertia builds them
-  g.for_each((w.I_joint ? 72 : 36) * n, [&](int t) {
+  // pass, at the joint point (c), entry by entry as spatial_inertia builds them; in the same pass
+  // (one sync less: each pass costs about 650 cycles even when short, docs/benchmarks/cuda.md),
+  // the velocities: sums of S_j qd_j over the ancestors-or-self
+  const int inertia_items = (w.I_joint ? 72 : 36) * n;
+  g.for_each(inertia_items + 6 * n, [&](int t) {
+    if (t >= inertia_items) {
+      const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
+      S s = S(0);
+      for (int j = 0; j <= i; ++j)
+        if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
+      w.v[v_item] = s;
+      return;
+    }
     const int i = w.I_joint ? t / 72 : t / 36;
     const int local = w.I_joint ? t % 72 : t % 36;
     const bool joint_point = local >= 36;
@@ -253,19 +275,12 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     (joint_point ? w.I_joint : w.I)[36 * i + e] = value;
   });
   g.sync();
-  // velocities: sums of S_j qd_j over the ancestors-or-self
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6;
-    S s = S(0);
-    for (int j = 0; j <= i; ++j)
-      if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
-    w.v[t] = s;
-  });
-  g.sync();
-  // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0)
+  // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and h = I v (kept in F
+  // until the subtree sums)
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
     w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
+    w.F[t] = row_dot(w.I, i, c, w.v + 6 * i);
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
@@ -277,18 +292,12 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
     w.a[t] = s;
   });
   g.sync();
-  // h = I v (kept in F until the subtree sums) and I a (in f)
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6;
-    w.F[t] = row_dot(w.I, i, c, w.v + 6 * i);
-    w.f[t] = row_dot(w.I, i, c, w.a + 6 * i);
-  });
-  g.sync();
   // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry
   g.for_each(42 * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
-      w.f[t] += cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0));
+      const S Ia = row_dot(w.I, i, c, w.a + 6 * i);
+      w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
     const int e = t - 6 * n, i = e / 36, r = (e % 36) / 6, c = e % 6;
@@ -366,30 +375,42 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   // The pivots go leaves first, as the core's factorization M = L^T D L does: the pivot of joint
   // k is then D[k] (the Schur complement of the joints after it), so a state fails at the same
   // joint for the same reason (factorize_mass_matrix).
+  // The pivots are kept (in B, free since the subtree sums) and checked once after the steps, in
+  // pivot order: a check inside each step would sit on every step's critical path.
   S* inverse = w.M;
+  S* const pivots = w.B;
   {
     S* other = w.Minv;
     for (int pv = n - 1; pv >= 0; --pv) {
       const S* A = inverse;
-      if (g.rank == 0 && *w.status == 0) {
-        const S d = A[pv * n + pv];
-        if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
-        else if (!(d > S(0))) *w.status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
-      }
       const S r = S(1) / A[pv * n + pv];
       g.for_each(n * n, [&](int t) {
         const int i = by_n.quotient(t), j = t - i * n;
         S x;
-        if (i == pv && j == pv) x = r;
-        else if (i == pv) x = -A[pv * n + j] * r;
-        else if (j == pv) x = A[i * n + pv] * r;
-        else x = A[t] - A[i * n + pv] * r * A[pv * n + j];
+        if (i == pv && j == pv) {
+          pivots[pv] = A[t];
+          x = r;
+        } else if (i == pv) {
+          x = -A[pv * n + j] * r;
+        } else if (j == pv) {
+          x = A[i * n + pv] * r;
+        } else {
+          x = A[t] - A[i * n + pv] * r * A[pv * n + j];
+        }
         other[t] = x;
       });
       g.sync();
       S* const result = other;
       other = inverse;
       inverse = result;
+    }
+  }
+  if (g.rank == 0 && *w.status == 0) {
+    for (int pv = n - 1; pv >= 0; --pv) {
+      const S d = pivots[pv];
+      if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
+      else if (!(d > S(0))) *w.status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
+      if (*w.status != 0) break;
     }
   }
   if constexpr (!SinglePrecision<S>::value) {

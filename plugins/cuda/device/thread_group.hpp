@@ -19,13 +19,25 @@ struct ThreadGroup {
   // host tests only: run each pass's items in reverse order, which changes the results if an item
   // reads what another item of the same pass writes
   bool reverse = false;
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+  // measurement builds only (bench/plugins/cuda_pass_timing.cpp): rank 0 of one group writes the
+  // SM clock after each sync, so the cost of every pass shows
+  long long* clocks = nullptr;
+  mutable int pass = 0;
+#endif
 
   RBDGRAD_HD void sync() const {
 #if defined(__CUDA_ARCH__)
     if (warp_sync) __syncwarp();
     else __syncthreads();
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+    if (clocks != nullptr && rank == 0 && pass < kMaxPassClocks - 2) clocks[pass++] = clock64();
+#endif
 #endif
   }
+#if defined(RBDGRAD_BLOCK_PASS_TIMING)
+  static constexpr int kMaxPassClocks = 128;
+#endif
 
   // f(item) for item in [0, count), spread over the group's threads
   template <class F>

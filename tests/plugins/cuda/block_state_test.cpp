@@ -35,7 +35,10 @@ std::vector<std::uint32_t> run_block_on_host(const Model& model, CudaBatch<S>& a
   b.status = status.data();
   cuda::ThreadGroup g;
   g.reverse = reverse;
-  for (std::size_t k = 0; k < a.n; ++k) cuda::block_evaluate_state(m, w, b, k, true, g);
+  for (std::size_t k = 0; k < a.n; ++k) {
+    cuda::block_load_inputs(m.nv, w, b, k, g);
+    cuda::block_evaluate_state(m, w, b, k, true, g);
+  }
   return status;
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 #include "../../support/test_models.hpp"
@@ -16,17 +17,18 @@
 namespace rbdgrad::cuda {
 namespace {
 
-// One f64 batch from tau of n equal states, every output array allocated.
+// One batch from tau of n equal states in S (double or float), every output array allocated.
+template <class S = double>
 struct OneBatch {
-  std::vector<double> q, qd, tau, qdd, minv, dq, dqd, M;
+  std::vector<S> q, qd, tau, qdd, minv, dq, dqd, M;
   std::vector<std::int32_t> status;
   rbdgrad_batch b{};
   OneBatch(int nv, std::size_t n, std::uint32_t outputs)
-      : q(n * nv, 0.1), qd(n * nv, 0.2), tau(n * nv, 0.3), qdd(n * nv), minv(n * nv * nv), dq(n * nv * nv),
+      : q(n * nv, S(0.1)), qd(n * nv, S(0.2)), tau(n * nv, S(0.3)), qdd(n * nv), minv(n * nv * nv), dq(n * nv * nv),
         dqd(n * nv * nv), M(n * nv * nv), status(n) {
     b.struct_size = sizeof(b);
     b.n = n;
-    b.precision = RBDGRAD_PRECISION_F64;
+    b.precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
     b.input_kind = RBDGRAD_INPUT_TAU;
     b.outputs = outputs;
     b.q = q.data();
@@ -46,11 +48,11 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   std::unique_ptr<CudaInstance> instance;
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
-  OneBatch run(model.nv, 100, gradient);
+  OneBatch<> run(model.nv, 100, gradient);
   ASSERT_TRUE(instance->compute(&run.b));
   EXPECT_TRUE(instance->last_used_block_kernel());
   EXPECT_TRUE(instance->last_used_mapped_io()) << "100 states: no copies by default";
-  OneBatch with_m(model.nv, 100, gradient | RBDGRAD_OUTPUT_M);
+  OneBatch<> with_m(model.nv, 100, gradient | RBDGRAD_OUTPUT_M);
   ASSERT_TRUE(instance->compute(&with_m.b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "M is not a block-kernel output";
   // the same numbers from both kernels (to rounding)
@@ -60,7 +62,7 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   options.block_max_states = 99;
   options.mapped_io_max_kib = 0;
   ASSERT_TRUE(instance->set_kernel_options(options));
-  OneBatch again(model.nv, 100, gradient);
+  OneBatch<> again(model.nv, 100, gradient);
   ASSERT_TRUE(instance->compute(&again.b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "100 states, more than block_max_states";
   EXPECT_FALSE(instance->last_used_mapped_io());
@@ -70,6 +72,36 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
 
+// Large f32 batches of small models go to the one-thread kernel (measured faster there); f64
+// batches and large models stay on the block kernel.
+TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+  for (const char* robot : {"iiwa14", "talos_reduced"}) {
+    const Model model = testing::load_embedded(robot);
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    KernelOptions options;
+    options.f32_thread_kernel_min_states = 64;  // the rule at a size a test can afford
+    ASSERT_TRUE(instance->set_kernel_options(options));
+    const bool small_model = model.nv <= kThreadKernelMaxNv;
+    OneBatch<float> below(model.nv, 63, gradient), at(model.nv, 64, gradient);
+    ASSERT_TRUE(instance->compute(&below.b));
+    EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": 63 states";
+    ASSERT_TRUE(instance->compute(&at.b));
+    EXPECT_EQ(instance->last_used_block_kernel(), !small_model) << robot << ": 64 states";
+    // the same numbers from either kernel (to f32 rounding)
+    for (std::size_t e = 0; e < below.dq.size(); ++e)
+      EXPECT_NEAR(below.dq[e], at.dq[e], 1e-3f * (1 + std::abs(below.dq[e]))) << robot;
+    OneBatch<double> f64(model.nv, 64, gradient);
+    ASSERT_TRUE(instance->compute(&f64.b));
+    EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": f64";
+    options.f32_thread_kernel_min_states = 0;  // never
+    ASSERT_TRUE(instance->set_kernel_options(options));
+    ASSERT_TRUE(instance->compute(&at.b));
+    EXPECT_TRUE(instance->last_used_block_kernel()) << robot;
+  }
+}
+
 TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
   const Model model = testing::load_embedded("talos_reduced");
   std::unique_ptr<CudaInstance> instance;
@@ -77,7 +109,7 @@ TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
   KernelOptions options;
   options.block_shape = {32, 32};  // 32 talos states of about 100 KB each: more than any GPU's block
   ASSERT_TRUE(instance->set_kernel_options(options));
-  OneBatch run(model.nv, 40, RBDGRAD_OUTPUT_DQDD_DQ);
+  OneBatch<> run(model.nv, 40, RBDGRAD_OUTPUT_DQDD_DQ);
   ASSERT_TRUE(instance->compute(&run.b));
   EXPECT_FALSE(instance->last_used_block_kernel());
   for (std::int32_t s : run.status) EXPECT_EQ(s, 0);
@@ -91,7 +123,7 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
   for (const std::size_t n : {1000u, 3 * 8192u + 7}) {
-    OneBatch pageable(model.nv, n, gradient);
+    OneBatch<> pageable(model.nv, n, gradient);
     for (std::size_t e = 0; e < pageable.q.size(); ++e) pageable.q[e] = 0.001 * static_cast<double>(e % 1000);
     ASSERT_TRUE(instance->compute(&pageable.b));
     EXPECT_EQ(instance->last_pinned_arrays(), 0);
