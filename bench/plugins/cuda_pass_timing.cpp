@@ -24,7 +24,7 @@ constexpr int kClocks = rbdgrad::cuda::ThreadGroup::kMaxPassClocks;
 constexpr int kRepeats = 51;
 
 template <class S>
-int run(const std::string& robot, std::uint32_t precision, std::size_t n, double clock_ghz) {
+int run(const std::string& robot, std::uint32_t precision, std::size_t n, double clock_ghz, bool mapped_io) {
   Model model;
   if (!rbdgrad::load_urdf_string(std::string(rbdgrad::embedded_robot_urdf(robot)), robot, model)) return 1;
   std::unique_ptr<rbdgrad::cuda::CudaInstance> instance;
@@ -32,6 +32,10 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
     std::printf("%s\n", s.to_string().c_str());
     return 1;
   }
+  // copies instead of host memory read and written by the kernel (mapped I/O, the default here)
+  rbdgrad::cuda::KernelOptions options;
+  if (!mapped_io) options.mapped_io_max_kib = 0;
+  if (!instance->set_kernel_options(options)) return 1;
   const std::size_t v = n * static_cast<std::size_t>(model.nv);
   std::vector<S> q(v), qd(v), tau(v), dq(v * model.nv), dqd(v * model.nv);
   std::vector<std::int32_t> status(n);
@@ -72,8 +76,8 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
     for (int k = 1; k < count; ++k) d.push_back(clocks[k] - clocks[k - 1]);
     deltas.push_back(d);
   }
-  std::printf("%s %s N=%zu: %d passes, kernel %.1f us (event)\n", robot.c_str(), sizeof(S) == 8 ? "f64" : "f32", n,
-              passes - 1, instance->last_kernel_ms() * 1e3);
+  std::printf("%s %s N=%zu %s: %d passes, kernel %.1f us (event)\n", robot.c_str(), sizeof(S) == 8 ? "f64" : "f32", n,
+              mapped_io ? "mapped I/O" : "copies", passes - 1, instance->last_kernel_ms() * 1e3);
   long long total = 0;
   for (int k = 0; k < passes; ++k) {
     std::vector<long long> at;
@@ -104,9 +108,10 @@ int main() {
   const double ghz = clock_khz / 1e6;
   std::printf("%s, SM clock %.3f GHz\n", prop.name, ghz);
   int rc = 0;
-  for (const char* robot : {"iiwa14", "talos_reduced"}) {
-    rc |= run<double>(robot, RBDGRAD_PRECISION_F64, 16, ghz);
-    rc |= run<float>(robot, RBDGRAD_PRECISION_F32, 16, ghz);
-  }
+  for (const bool mapped_io : {true, false})
+    for (const char* robot : {"iiwa14", "talos_reduced"}) {
+      rc |= run<double>(robot, RBDGRAD_PRECISION_F64, 16, ghz, mapped_io);
+      rc |= run<float>(robot, RBDGRAD_PRECISION_F32, 16, ghz, mapped_io);
+    }
   return rc;
 }

@@ -5,6 +5,7 @@
 
 #include <cuda_runtime_api.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -12,62 +13,60 @@
 #include <vector>
 
 #include "../../support/test_models.hpp"
+#include "../support/plugin_harness.hpp"
 #include "cuda_instance.hpp"
 
 namespace rbdgrad::cuda {
 namespace {
 
-// One batch from tau of n equal states in S (double or float), every output array allocated.
+// n equal states in S (double or float), from tau: the plugin tests' batch arrays (outputs
+// prefilled with a marker)
 template <class S = double>
-struct OneBatch {
-  std::vector<S> q, qd, tau, qdd, minv, dq, dqd, M;
-  std::vector<std::int32_t> status;
-  rbdgrad_batch b{};
-  OneBatch(int nv, std::size_t n, std::uint32_t outputs)
-      : q(n * nv, S(0.1)), qd(n * nv, S(0.2)), tau(n * nv, S(0.3)), qdd(n * nv), minv(n * nv * nv), dq(n * nv * nv),
-        dqd(n * nv * nv), M(n * nv * nv), status(n) {
-    b.struct_size = sizeof(b);
-    b.n = n;
-    b.precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
-    b.input_kind = RBDGRAD_INPUT_TAU;
-    b.outputs = outputs;
-    b.q = q.data();
-    b.qd = qd.data();
-    b.u = tau.data();
-    b.qdd = qdd.data();
-    b.minv_out = minv.data();
-    b.dqdd_dq = dq.data();
-    b.dqdd_dqd = dqd.data();
-    b.m = M.data();
-    b.state_status = status.data();
-  }
-};
+testing::BatchArrays<S> equal_states(int nv, std::size_t n) {
+  testing::BatchArrays<S> a(n, nv);
+  std::fill(a.q.begin(), a.q.end(), S(0.1));
+  std::fill(a.qd.begin(), a.qd.end(), S(0.2));
+  std::fill(a.u.begin(), a.u.end(), S(0.3));
+  return a;
+}
+
+template <class S>
+rbdgrad_batch batch_of(testing::BatchArrays<S>& a, std::uint32_t outputs) {
+  return a.batch(std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, outputs,
+                 false, false);
+}
 
 TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   const Model model = testing::load_embedded("iiwa14");
   std::unique_ptr<CudaInstance> instance;
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
-  OneBatch<> run(model.nv, 100, gradient);
-  ASSERT_TRUE(instance->compute(&run.b));
+  auto run = equal_states(model.nv, 100);
+  rbdgrad_batch b = batch_of(run, gradient);
+  ASSERT_TRUE(instance->compute(&b));
   EXPECT_TRUE(instance->last_used_block_kernel());
   EXPECT_TRUE(instance->last_used_mapped_io()) << "100 states: no copies by default";
-  OneBatch<> with_m(model.nv, 100, gradient | RBDGRAD_OUTPUT_M);
-  ASSERT_TRUE(instance->compute(&with_m.b));
+  auto with_m = equal_states(model.nv, 100);
+  b = batch_of(with_m, gradient | RBDGRAD_OUTPUT_M);
+  ASSERT_TRUE(instance->compute(&b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "M is not a block-kernel output";
   // the same numbers from both kernels (to rounding)
-  for (std::size_t e = 0; e < run.dq.size(); ++e) EXPECT_NEAR(run.dq[e], with_m.dq[e], 1e-9 * (1 + std::abs(run.dq[e])));
+  const std::vector<double>& dq = run.out(RBDGRAD_OUTPUT_DQDD_DQ);
+  for (std::size_t e = 0; e < dq.size(); ++e)
+    EXPECT_NEAR(dq[e], with_m.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e])));
 
   KernelOptions options;
   options.block_max_states = 99;
   options.mapped_io_max_kib = 0;
   ASSERT_TRUE(instance->set_kernel_options(options));
-  OneBatch<> again(model.nv, 100, gradient);
-  ASSERT_TRUE(instance->compute(&again.b));
+  auto again = equal_states(model.nv, 100);
+  b = batch_of(again, gradient);
+  ASSERT_TRUE(instance->compute(&b));
   EXPECT_FALSE(instance->last_used_block_kernel()) << "100 states, more than block_max_states";
   EXPECT_FALSE(instance->last_used_mapped_io());
   // copies or none, either kernel: the same numbers
-  for (std::size_t e = 0; e < run.dq.size(); ++e) EXPECT_NEAR(run.dq[e], again.dq[e], 1e-9 * (1 + std::abs(run.dq[e])));
+  for (std::size_t e = 0; e < dq.size(); ++e)
+    EXPECT_NEAR(dq[e], again.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e])));
   options.block_shape = {1024, 2};
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
@@ -84,20 +83,24 @@ TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
     options.f32_thread_kernel_min_states = 64;  // the rule at a size a test can afford
     ASSERT_TRUE(instance->set_kernel_options(options));
     const bool small_model = model.nv <= kThreadKernelMaxNv;
-    OneBatch<float> below(model.nv, 63, gradient), at(model.nv, 64, gradient);
-    ASSERT_TRUE(instance->compute(&below.b));
+    auto below = equal_states<float>(model.nv, 63);
+    auto at = equal_states<float>(model.nv, 64);
+    rbdgrad_batch b_below = batch_of(below, gradient), b_at = batch_of(at, gradient);
+    ASSERT_TRUE(instance->compute(&b_below));
     EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": 63 states";
-    ASSERT_TRUE(instance->compute(&at.b));
+    ASSERT_TRUE(instance->compute(&b_at));
     EXPECT_EQ(instance->last_used_block_kernel(), !small_model) << robot << ": 64 states";
     // the same numbers from either kernel (to f32 rounding)
-    for (std::size_t e = 0; e < below.dq.size(); ++e)
-      EXPECT_NEAR(below.dq[e], at.dq[e], 1e-3f * (1 + std::abs(below.dq[e]))) << robot;
-    OneBatch<double> f64(model.nv, 64, gradient);
-    ASSERT_TRUE(instance->compute(&f64.b));
+    const std::vector<float>& dq = below.out(RBDGRAD_OUTPUT_DQDD_DQ);
+    for (std::size_t e = 0; e < dq.size(); ++e)
+      EXPECT_NEAR(dq[e], at.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-3f * (1 + std::abs(dq[e]))) << robot;
+    auto f64 = equal_states<double>(model.nv, 64);
+    rbdgrad_batch b_f64 = batch_of(f64, gradient);
+    ASSERT_TRUE(instance->compute(&b_f64));
     EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": f64";
     options.f32_thread_kernel_min_states = 0;  // never
     ASSERT_TRUE(instance->set_kernel_options(options));
-    ASSERT_TRUE(instance->compute(&at.b));
+    ASSERT_TRUE(instance->compute(&b_at));
     EXPECT_TRUE(instance->last_used_block_kernel()) << robot;
   }
 }
@@ -109,10 +112,11 @@ TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
   KernelOptions options;
   options.block_shape = {32, 32};  // 32 talos states of about 100 KB each: more than any GPU's block
   ASSERT_TRUE(instance->set_kernel_options(options));
-  OneBatch<> run(model.nv, 40, RBDGRAD_OUTPUT_DQDD_DQ);
-  ASSERT_TRUE(instance->compute(&run.b));
+  auto run = equal_states(model.nv, 40);
+  rbdgrad_batch b = batch_of(run, RBDGRAD_OUTPUT_DQDD_DQ);
+  ASSERT_TRUE(instance->compute(&b));
   EXPECT_FALSE(instance->last_used_block_kernel());
-  for (std::int32_t s : run.status) EXPECT_EQ(s, 0);
+  for (std::int32_t s : run.state_status) EXPECT_EQ(s, 0);
 }
 
 // A caller whose arrays are pinned (cudaMallocHost) gets them moved without staging, in one chunk
@@ -123,9 +127,10 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
   for (const std::size_t n : {1000u, 3 * 8192u + 7}) {
-    OneBatch<> pageable(model.nv, n, gradient);
+    auto pageable = equal_states(model.nv, n);
     for (std::size_t e = 0; e < pageable.q.size(); ++e) pageable.q[e] = 0.001 * static_cast<double>(e % 1000);
-    ASSERT_TRUE(instance->compute(&pageable.b));
+    const rbdgrad_batch pageable_batch = batch_of(pageable, gradient);
+    ASSERT_TRUE(instance->compute(&pageable_batch));
     EXPECT_EQ(instance->last_pinned_arrays(), 0);
     // the same batch in pinned copies of every array
     std::vector<void*> pinned;
@@ -136,13 +141,16 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
       pinned.push_back(p);
       return static_cast<double*>(p);
     };
-    rbdgrad_batch b = pageable.b;
+    const std::vector<double>& want_qdd = pageable.out(RBDGRAD_OUTPUT_QDD);
+    const std::vector<double>& want_dq = pageable.out(RBDGRAD_OUTPUT_DQDD_DQ);
+    const std::vector<double>& want_dqd = pageable.out(RBDGRAD_OUTPUT_DQDD_DQD);
+    rbdgrad_batch b = pageable_batch;
     b.q = pin(pageable.q);
     b.qd = pin(pageable.qd);
-    b.u = pin(pageable.tau);
-    double* qdd = pin(pageable.qdd);
-    double* dq = pin(pageable.dq);
-    double* dqd = pin(pageable.dqd);
+    b.u = pin(pageable.u);
+    double* qdd = pin(want_qdd);
+    double* dq = pin(want_dq);
+    double* dqd = pin(want_dqd);
     std::vector<std::int32_t> status(n, -1);
     b.qdd = qdd;
     b.dqdd_dq = dq;
@@ -152,11 +160,11 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
     for (std::size_t e = 0; e < n * model.nv; ++e) qdd[e] = std::nan("");
     ASSERT_TRUE(instance->compute(&b));
     EXPECT_EQ(instance->last_pinned_arrays(), 6) << n << " states";
-    for (std::size_t e = 0; e < pageable.dq.size(); ++e) {
-      ASSERT_EQ(dq[e], pageable.dq[e]) << n << " states, element " << e;
-      ASSERT_EQ(dqd[e], pageable.dqd[e]) << n << " states, element " << e;
+    for (std::size_t e = 0; e < want_dq.size(); ++e) {
+      ASSERT_EQ(dq[e], want_dq[e]) << n << " states, element " << e;
+      ASSERT_EQ(dqd[e], want_dqd[e]) << n << " states, element " << e;
     }
-    for (std::size_t e = 0; e < pageable.qdd.size(); ++e) ASSERT_EQ(qdd[e], pageable.qdd[e]) << e;
+    for (std::size_t e = 0; e < want_qdd.size(); ++e) ASSERT_EQ(qdd[e], want_qdd[e]) << e;
     for (std::int32_t s : status) ASSERT_EQ(s, 0);
     for (void* p : pinned) cudaFreeHost(p);
   }
