@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <memory>
@@ -106,6 +107,10 @@ struct Backend {
         unavailable = s.to_string();
         return nullptr;
       }
+      // as the plugin does by default: the block kernel compiled for the robot (the "generic"
+      // entries turn it off)
+      (void)slot->specialize("");
+      if (copy == 0) std::fprintf(stderr, "%s: %s\n", robot.c_str(), slot->kernel_description().c_str());
     }
     return slot.get();
   }
@@ -126,8 +131,15 @@ Kernel thread_kernel() {
   k.options.block_max_states = 0;
   return k;
 }
-// the plugin's defaults: the kernel, its shape and the I/O chosen by batch and model
+// the plugin's defaults: the kernel, its shape and the I/O chosen by batch and model, the block
+// kernel compiled for the robot
 Kernel default_kernel() { return {"default", {}}; }
+// the same with the block kernel compiled for any robot (the plugin's option specialize: false)
+Kernel generic_kernel() {
+  Kernel k{"generic", {}};
+  k.options.robot_specific = false;
+  return k;
+}
 // the block kernel at every size, in its default shape and I/O or with copies at every size
 Kernel block_kernel(bool mapped_io) {
   Kernel k{mapped_io ? "block" : "block-copy", {}};
@@ -176,6 +188,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   }
   state.counters["kernel_us"] = 1e3 * kernel_ms / static_cast<double>(state.iterations());
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
+  state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
   state.counters["mapped_io"] = instance->last_used_mapped_io() ? 1 : 0;
   state.counters["pinned_arrays"] = instance->last_pinned_arrays();
   state.counters["states_per_s"] =
@@ -195,10 +208,11 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
 
 // cuda_e2e: the anchors' sizes with the plugin's defaults (the kernel chosen by size, copies
 // skipped for small batches), the caller's arrays pinned (the anchors' pinned columns) and
-// pageable; then the block kernel with copies at every size, and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to
+// pageable; then the generic block kernel instead of the robot's, the block kernel with copies at
+// every size, and the one-thread kernel; cuda_shape: the block kernel's shapes at a few sizes, to
 // choose the default by measurement.
 const bool registered = [] {
-  const Kernel kernels[] = {default_kernel(), block_kernel(false), thread_kernel()};
+  const Kernel kernels[] = {default_kernel(), generic_kernel(), block_kernel(false), thread_kernel()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const Kernel& kernel : kernels)
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {

@@ -54,4 +54,14 @@ Status option_uint(const rbdgrad_options* options, std::string_view key, std::ui
   return Status::ok();
 }
 
+Status option_bool(const rbdgrad_options* options, std::string_view key, bool& value) {
+  const char* text = find_option(options, key);
+  if (text == nullptr) return Status::ok();
+  const std::string_view s(text);
+  if (s != "true" && s != "false")
+    return invalid_argument("option '" + std::string(key) + "' is '" + std::string(s) + "': expected 'true' or 'false'");
+  value = s == "true";
+  return Status::ok();
+}
+
 }  // namespace rbdgrad::plugin

@@ -23,4 +23,8 @@ const char* find_option(const rbdgrad_options* options, std::string_view key);
 Status option_uint(const rbdgrad_options* options, std::string_view key, std::uint64_t min, std::uint64_t max,
                    std::uint64_t& value);
 
+/// Parses option `key` as "true" or "false" into `value`, which keeps its default when the option
+/// is absent: invalid_argument "option 'specialize' is 'yes': expected 'true' or 'false'".
+Status option_bool(const rbdgrad_options* options, std::string_view key, bool& value);
+
 }  // namespace rbdgrad::plugin

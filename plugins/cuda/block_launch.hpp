@@ -7,7 +7,7 @@
 
 #include <cstddef>
 
-#include "device/block_fused_state.hpp"
+#include "device/block_kernel_entry.hpp"
 
 namespace rbdgrad::cuda {
 
@@ -31,13 +31,6 @@ inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size
     shape.threads_per_state = n <= kWideStates ? 256 : t;
   }
   return shape;
-}
-
-/// Bytes of the robot's constants at the start of a block's shared memory (16-byte aligned).
-template <class S>
-RBDGRAD_HD std::size_t block_model_bytes(int nv) {
-  const std::size_t bytes = ModelLayout::scalars(nv) * sizeof(S) + ModelLayout::ints(nv) * sizeof(int);
-  return (bytes + 15) / 16 * 16;
 }
 
 /// Shared memory of one block of `shape` (resolved) for a model of nv joints, in bytes: the

@@ -1,6 +1,7 @@
 #include "cuda_instance.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <type_traits>
@@ -177,6 +178,38 @@ bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n
 
 template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
 template <> const ModelView<float>& CudaInstance::view<float>() const { return view_f32_; }
+template <>
+const SpecializedBlockKernel* CudaInstance::specialized<double>() const {
+  return specialized_f64_.get();
+}
+template <>
+const SpecializedBlockKernel* CudaInstance::specialized<float>() const {
+  return specialized_f32_.get();
+}
+
+Status CudaInstance::specialize(const std::string& cache_dir) {
+  if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
+  Status first = Status::ok();
+  std::string parts;
+  for (bool single : {false, true}) {
+    std::unique_ptr<SpecializedBlockKernel>& k = single ? specialized_f32_ : specialized_f64_;
+    k.reset();
+    const Status s = SpecializedBlockKernel::load(model_, single, device_, max_shared_bytes_, cache_dir, k);
+    if (!s && first) first = s;
+    parts += std::string(parts.empty() ? "" : "; ") + (single ? "f32: " : "f64: ");
+    if (!s) {
+      parts += "generic kernel, " + s.message().substr(0, s.message().find('\n'));
+      continue;
+    }
+    char seconds[32];
+    std::snprintf(seconds, sizeof seconds, "%.1f s", k->seconds());
+    parts += std::string(kernel_origin_name(k->origin())) + ", " + seconds;
+    if (!k->warning().empty()) parts += ", " + k->warning();
+  }
+  kernel_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
+                        parts + ")";
+  return first;
+}
 
 Status CudaInstance::compute(const rbdgrad_batch* batch) {
   if (Status s = plugin::validate_batch(batch, model_.nv, kPrecisions, plugin::kAllOutputs); !s) return s;
@@ -292,8 +325,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     if (c == 0) e = cudaEventRecord(kernel_start_, stream);
     else if (!block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
     if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
-    const cudaError_t launched = block ? launch_block_fused<S>(view<S>(), p, shape, stream)
-                                       : launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream);
+    const SpecializedBlockKernel* specific = kernel_.robot_specific ? specialized<S>() : nullptr;
+    const cudaError_t launched = !block    ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
+                                 : specific ? specific->launch<S>(view<S>(), p, shape, stream)
+                                            : launch_block_fused<S>(view<S>(), p, shape, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
 
@@ -336,6 +371,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       !s)
     return s;
   last_block_ = block;
+  last_specific_ = block && kernel_.robot_specific && specialized<S>() != nullptr;
   last_mapped_ = mapped;
   last_pinned_ = 0;
   for (bool pinned : in_pinned) last_pinned_ += pinned;

@@ -18,6 +18,7 @@
 #include "block_launch.hpp"
 #include "device/fused_state.hpp"
 #include "device_memory.hpp"
+#include "specialized_kernel.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/plugin_api.h"
 #include "rbdgrad/status.hpp"
@@ -61,6 +62,8 @@ struct KernelOptions {
   std::size_t f32_thread_kernel_min_states = kDefaultF32ThreadKernelMinStates;
   BlockShape block_shape;
   std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
+  // the block kernel compiled for the robot (specialize()) where there is one, else the generic
+  bool robot_specific = true;
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none).
@@ -90,12 +93,23 @@ class CudaInstance {
   /// "state 3: fd_derivatives: result is not finite (NaN or Inf)". Not reentrant.
   Status compute(const rbdgrad_batch* batch);
 
+  /// Compiles the block kernel for this robot in both precisions (SpecializedBlockKernel, NVRTC),
+  /// from `cache_dir` when it holds them ("" = no disk cache). Until then, and for a precision
+  /// where it fails, the generic kernel runs; kernel_description() says which runs and why.
+  /// \return the first failure (the instance stays usable).
+  Status specialize(const std::string& cache_dir);
+  /// "kernel compiled for this robot (f64: compiled in 2.1 s; f32: disk cache)", or "generic
+  /// kernel" and why: for logs (describe_instance).
+  const std::string& kernel_description() const { return kernel_description_; }
+
   /// Kernel choice and shape for the next compute() calls. Errors: check_kernel_options.
   Status set_kernel_options(const KernelOptions& options);
   const KernelOptions& kernel_options() const { return kernel_; }
   /// Whether the last successful compute() ran the block kernel, and whether it skipped the copies.
   bool last_used_block_kernel() const { return last_block_; }
   bool last_used_mapped_io() const { return last_mapped_; }
+  /// Whether the last successful compute() ran the block kernel compiled for this robot.
+  bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many of the caller's arrays the last successful compute() moved without staging (pinned).
   int last_pinned_arrays() const { return last_pinned_; }
 
@@ -114,6 +128,7 @@ class CudaInstance {
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
   template <class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
   template <class S> const ModelView<S>& view() const;
+  template <class S> const SpecializedBlockKernel* specialized() const;
 
   Model model_;
   int device_;
@@ -128,6 +143,9 @@ class CudaInstance {
   std::size_t max_shared_bytes_ = 0;  // per block, the device's opt-in limit
   bool last_block_ = false;
   bool last_mapped_ = false;
+  bool last_specific_ = false;
+  std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_;
+  std::string kernel_description_ = "generic kernel";
   int last_pinned_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions
   Allocation d_model_f64_{MemoryKind::kDevice};  // (ModelLayout::scalars) constants in f64

@@ -2,6 +2,7 @@
 // per instance, in f64 and f32. Without a driver or GPU the library still loads, and every
 // instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
 #include <memory>
+#include <string>
 
 #include "common/batch_view.hpp"
 #include "common/entry_checks.hpp"
@@ -11,6 +12,7 @@
 #include "common/options.hpp"
 #include "cuda_device.hpp"
 #include "cuda_instance.hpp"
+#include "kernel_cache.hpp"
 #include "rbdgrad/plugin_api.h"
 
 #ifndef RBDGRAD_VERSION
@@ -20,6 +22,7 @@
 // Completes the ABI's opaque instance type for this plugin.
 struct rbdgrad_instance {
   std::unique_ptr<rbdgrad::cuda::CudaInstance> gpu;
+  std::string device;  // describe_instance's: the GPU and the kernel
 };
 
 namespace rbdgrad::plugin {
@@ -71,11 +74,18 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // mapped_io_max_kib: batches whose inputs and outputs take up to this many KiB skip the
     // device copies (the kernel works on pinned host memory). f32_thread_kernel_min_states: f32
     // gradient batches of at least this many states on small models run the one-thread kernel
-    // (0: never).
+    // (0: never). specialize: compile the block kernel for the robot at load (NVRTC; default
+    // true); kernel_cache_dir: where compiled kernels are kept across restarts ("" = not kept;
+    // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
-                                           "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states"});
+                                           "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
+                                           "specialize", "kernel_cache_dir"});
         !s)
       return s;
+    bool specialize = true;
+    if (Status s = option_bool(options, "specialize", specialize); !s) return s;
+    const char* cache_option = find_option(options, "kernel_cache_dir");
+    const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;
     if (Status s = option_uint(options, "device", 0, kMaxDevice, device); !s) return s;
     std::uint64_t workspace_mib = cuda::kDefaultWorkspaceBytes >> 20;
@@ -106,6 +116,9 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
         !s)
       return s;
     if (Status s = made->gpu->set_kernel_options(kernel); !s) return s;
+    // a kernel that cannot be compiled leaves the generic one, and the description says why
+    if (specialize) (void)made->gpu->specialize(cache_dir);
+    made->device = made->gpu->device_name() + "; " + made->gpu->kernel_description();
     *instance = made.release();
     return Status::ok();
   });
@@ -128,7 +141,7 @@ rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_insta
     if (info == nullptr) return invalid_argument("info is NULL");
     if (Status s = check_struct_size("instance_info", info->struct_size, sizeof(rbdgrad_instance_info)); !s) return s;
     info->mode = "";
-    info->device = instance->gpu->device_name().c_str();
+    info->device = instance->device.c_str();
     return Status::ok();
   });
 }

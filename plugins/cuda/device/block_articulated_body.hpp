@@ -50,8 +50,9 @@ RBDGRAD_HD S shifted_inertia_entry(const S* I, const S* d, int row, int col) {
 
 // qdd = FD(q, qd, tau) into w.qdd. Needs the world placements, v, alpha, I_joint and f_ext of
 // the forward passes; ends with a sync.
-template <class S>
-RBDGRAD_HD void block_articulated_body(const ModelView<S>& m, const BlockWorkspace<S>& w, bool with_fext,
+// Model as block_evaluate_state's.
+template <class S, class Model>
+RBDGRAD_HD void block_articulated_body(const Model& m, const BlockWorkspace<S>& w, bool with_fext,
                                        const ThreadGroup& g) {
   const int n = m.nv;
   // body terms about the joint points

@@ -15,8 +15,6 @@
 // other request goes to the one-thread kernel.
 #pragma once
 
-#include <type_traits>
-
 #include "block_articulated_body.hpp"
 #include "fused_state.hpp"
 
@@ -77,6 +75,17 @@ struct Divider {
   RBDGRAD_HD int quotient(int t) const { return static_cast<int>((static_cast<float>(t) + 0.5f) * inverse); }
   RBDGRAD_HD int remainder(int t) const { return t - quotient(t) * n; }
 };
+// The same by a compile-time N (a kernel compiled for one robot): a multiply and a shift.
+template <int N>
+struct FixedDivider {
+  RBDGRAD_HD int quotient(int t) const { return t / N; }
+  RBDGRAD_HD int remainder(int t) const { return t % N; }
+};
+template <class Model>
+RBDGRAD_HD auto divider_for(int n) {
+  if constexpr (FixedNv<Model>::value > 0) return FixedDivider<FixedNv<Model>::value>{};
+  else return Divider(n);
+}
 
 // Components of the spatial cross products, the operands read in place (element e of x at
 // x[e * stride]): one component per thread, and no local array indexed at run time.
@@ -130,8 +139,9 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // and status; an inactive group (past the end of the batch) runs on `state` for the syncs' sake and
 // writes nothing. The inputs are in w.q, w.qd and w.u already (block_load_inputs, by the same
 // threads).
-template <class S>
-RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
+// Model: ModelView<S>, or FixedSizeModelView<S, ...> for a kernel compiled for one robot.
+template <class S, class Model>
+RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
   using block::cross_force_at;
@@ -142,7 +152,7 @@ RBDGRAD_HD void block_evaluate_state(const ModelView<S>& m, const BlockWorkspace
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   const S* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
-  const block::Divider by_n(n);
+  const auto by_n = block::divider_for<Model>(n);
 
   if (g.rank == 0) *w.status = *w.not_finite = 0;
   // the joint transforms in the parent frames

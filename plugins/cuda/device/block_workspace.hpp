@@ -4,9 +4,6 @@
 // block_fused_state.hpp hand to each other.
 #pragma once
 
-#include <cstddef>
-#include <cstdint>
-
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {

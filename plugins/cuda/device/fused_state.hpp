@@ -5,8 +5,6 @@
 // the same message on the CPU and the GPU.
 #pragma once
 
-#include <cstdint>
-
 #include "articulated_body_pass.hpp"
 #include "mass_inverse.hpp"
 #include "output_flags.hpp"

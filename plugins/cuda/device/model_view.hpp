@@ -39,6 +39,29 @@ struct ModelView {
   }
 };
 
+// A ModelView whose sizes are compile-time constants: the block kernel compiled for one robot when
+// its model is loaded (kernel_source.cpp) sees nv and the tree's depth as constants, so that its
+// loops over joints have fixed trip counts and its index arithmetic divides by constants. The
+// arrays are the same as the view's. Code that takes a ModelView<S>& sees the run-time sizes,
+// which are equal.
+template <class S, int NV, int LEVELS>
+struct FixedSizeModelView : ModelView<S> {
+  static_assert(NV >= 1 && LEVELS >= 1 && LEVELS <= NV, "a tree of NV joints is 1 to NV levels deep");
+  static constexpr int nv = NV;
+  static constexpr int levels = LEVELS;
+  RBDGRAD_HD explicit FixedSizeModelView(const ModelView<S>& view) : ModelView<S>(view) {}
+};
+
+// The number of joints a model type fixes at compile time, 0 for run-time sizes.
+template <class Model>
+struct FixedNv {
+  static constexpr int value = 0;
+};
+template <class S, int NV, int LEVELS>
+struct FixedNv<FixedSizeModelView<S, NV, LEVELS>> {
+  static constexpr int value = NV;
+};
+
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;

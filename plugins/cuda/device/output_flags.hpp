@@ -2,8 +2,6 @@
 // each flag in BatchPointers::out. cuda_instance.cpp checks that the values agree with plugin_api.h.
 #pragma once
 
-#include <cstdint>
-
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {

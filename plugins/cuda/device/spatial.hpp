@@ -4,6 +4,8 @@
 // Motion vectors are [angular; linear], force vectors [moment; force]; matrices are row-major.
 #pragma once
 
+#include "std_support.hpp"
+
 #if defined(__CUDACC__)
 #define RBDGRAD_HD __host__ __device__ __forceinline__
 #else

@@ -3,8 +3,6 @@
 // (status_message.hpp), so that a state fails with the same words on every backend.
 #pragma once
 
-#include <cstdint>
-
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {

@@ -4,8 +4,6 @@
 // same element at once, so their accesses coalesce.
 #pragma once
 
-#include <cstddef>
-
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {

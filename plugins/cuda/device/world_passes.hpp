@@ -4,9 +4,6 @@
 // backward pass: composite inertias, tau, M and the derivatives of tau (Algorithm 2).
 #pragma once
 
-#include <cmath>
-#include <type_traits>
-
 #include "model_view.hpp"
 #include "workspace_view.hpp"
 

@@ -4,6 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+
 namespace rbdgrad::plugin {
 namespace {
 
@@ -46,6 +49,30 @@ TEST(PluginOptions, MalformedListsAndValues) {
     EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << bad;
     EXPECT_THAT(s.message(), HasSubstr("option 'threads' is '" + std::string(bad) + "'")) << bad;
     EXPECT_EQ(value, 1u) << bad;
+  }
+}
+
+TEST(PluginOptions, Booleans) {
+  for (const auto& [text, expected] : {std::pair{"true", true}, std::pair{"false", false}}) {
+    const char* k[] = {"specialize"};
+    const char* v[] = {text};
+    const rbdgrad_options one{sizeof(rbdgrad_options), 1, k, v};
+    bool value = !expected;
+    ASSERT_TRUE(option_bool(&one, "specialize", value).is_ok()) << text;
+    EXPECT_EQ(value, expected) << text;
+  }
+  bool absent = true;
+  ASSERT_TRUE(option_bool(nullptr, "specialize", absent).is_ok());
+  EXPECT_TRUE(absent);  // the default stays
+  for (const char* bad : {"", "True", "1", "yes", "false "}) {
+    const char* k[] = {"specialize"};
+    const char* v[] = {bad};
+    const rbdgrad_options one{sizeof(rbdgrad_options), 1, k, v};
+    bool value = true;
+    const Status s = option_bool(&one, "specialize", value);
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << bad;
+    EXPECT_THAT(s.message(), HasSubstr("option 'specialize' is '" + std::string(bad) + "': expected 'true' or 'false'"));
+    EXPECT_TRUE(value) << bad;
   }
 }
 

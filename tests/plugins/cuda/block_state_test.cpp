@@ -22,11 +22,13 @@ namespace {
 
 constexpr std::size_t kStates = 40;
 
-template <class S>
-std::vector<std::uint32_t> run_block_on_host(const Model& model, CudaBatch<S>& a, const OutputCase& c, bool tau_input,
-                                             bool reverse) {
+// Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
+// as the kernel compiled for it at load does.
+template <class S, class Model = cuda::ModelView<S>>
+std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
+                                             bool tau_input, bool reverse) {
   const cuda::FlatModel<S> flat(model);
-  const cuda::ModelView<S> m = flat.host_view();
+  const Model m(flat.host_view());
   const bool with_aba = cuda::block_uses_aba<S>(tau_input);
   std::vector<S> shared(cuda::BlockWorkspace<S>::scalars(model.nv, with_aba), poison<S>());
   const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
@@ -76,6 +78,49 @@ TEST(BlockStateOnHost, DividerIsExactForEveryIndexOfAPass) {
       ASSERT_EQ(d.quotient(t), t / n) << t << " / " << n;
       ASSERT_EQ(d.remainder(t), t % n) << t << " % " << n;
     }
+  }
+}
+
+// The robot-specific kernel (kernel_source.cpp) fixes nv and the tree's depth at compile time:
+// the same code, so the same results bit for bit (this test builds without FMA contraction, so
+// the constant folding cannot change a rounding either).
+template <class S, int NV, int LEVELS>
+void check_fixed_sizes(const std::string& robot) {
+  const Model model = robot_model(robot);
+  ASSERT_EQ(model.nv, NV) << robot;
+  ASSERT_EQ(model.max_depth(), LEVELS) << robot;
+  const std::vector<StateInputs> states = random_inputs(model, 8, 11);
+  for (const bool tau_input : {true, false}) {
+    for (const OutputCase& c : kBlockCases) {
+      CudaBatch<S> run_time(states, model.nv, tau_input), fixed(states, model.nv, tau_input);
+      run_time.poison();
+      fixed.poison();
+      const auto s1 = run_block_on_host<S>(model, run_time, c, tau_input, false);
+      const auto s2 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>>(model, fixed, c, tau_input, false);
+      const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
+      ASSERT_EQ(s1, s2) << where;
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), fixed.out[f].data(), run_time.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed";
+    }
+  }
+}
+
+TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
+  check_fixed_sizes<double, 7, 7>("iiwa14");
+  check_fixed_sizes<float, 7, 7>("iiwa14");
+  check_fixed_sizes<double, 12, 3>("hyq");
+  check_fixed_sizes<float, 12, 3>("hyq");
+}
+
+TEST(BlockStateOnHost, FixedDividerIsExact) {
+  const cuda::block::FixedDivider<7> d7;
+  const cuda::block::FixedDivider<32> d32;
+  for (int t = 0; t < 4 * 32 * 32 + 64 * 32; ++t) {
+    ASSERT_EQ(d7.quotient(t), t / 7);
+    ASSERT_EQ(d7.remainder(t), t % 7);
+    ASSERT_EQ(d32.quotient(t), t / 32);
+    ASSERT_EQ(d32.remainder(t), t % 32);
   }
 }
 

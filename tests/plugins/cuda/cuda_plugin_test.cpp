@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <optional>
 #include <string>
@@ -104,6 +105,10 @@ TEST(CudaPlugin, OptionsAreChecked) {
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   EXPECT_NE(e->message.find("a block holds 1 to 1024 threads"), std::string::npos) << e->message;
+  create(api(), iiwa().desc(), {{"specialize", "yes"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  EXPECT_NE(e->message.find("option 'specialize' is 'yes'"), std::string::npos) << e->message;
   SKIP_WITHOUT_GPU();
   // a small workspace still computes, with fewer resident thread slots
   EXPECT_NE(create(api(), iiwa().desc(), {{"workspace_mib", "1"}}, &e), nullptr) << (e ? e->message : "");
@@ -201,9 +206,20 @@ TEST(CudaPlugin, InstanceNamesItsGpu) {
   info.struct_size = sizeof(info);
   ASSERT_FALSE(take(api(), api()->describe_instance(instance.get(), &info)));
   EXPECT_STREQ(info.mode, "");  // the GPU itself
+  // "NVIDIA H200 (device 0); kernel compiled for this robot (f64: compiled, 0.9 s; f32: ...)", or
+  // "...; generic kernel (f64: generic kernel, NVRTC is not installed ...)" without NVRTC
   const std::string device = info.device;
-  EXPECT_GT(device.size(), std::string(" (device 0)").size()) << device;
-  EXPECT_EQ(device.substr(device.size() - 11), " (device 0)") << device;
+  EXPECT_NE(device.find(" (device 0); "), std::string::npos) << device;
+  const bool specific = device.find("; kernel compiled for this robot (f64: ") != std::string::npos;
+  const bool generic = device.find("; generic kernel (f64: generic kernel, ") != std::string::npos;
+  EXPECT_TRUE(specific || generic) << device;
+  std::printf("%s\n", device.c_str());
+  // without the robot-specific kernel
+  InstancePtr plain = create(api(), iiwa().desc(), {{"device", "0"}, {"specialize", "false"}});
+  ASSERT_TRUE(plain);
+  ASSERT_FALSE(take(api(), api()->describe_instance(plain.get(), &info)));
+  const std::string plain_device = info.device;
+  EXPECT_EQ(plain_device.substr(plain_device.size() - 16), "; generic kernel") << plain_device;
 }
 
 TEST(CudaSmallBatch, Iiwa14F64SevenStates) {

@@ -1,0 +1,52 @@
+// The block kernel compiled for one robot: generated (kernel_source.hpp) and compiled with NVRTC
+// (kernel_cache.hpp) when an instance is created, loaded onto its device, and launched as the
+// generic one is (block_launch.hpp). When NVRTC is missing or fails, the instance keeps the generic
+// kernel, compiled into the plugin for any robot.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include <memory>
+#include <string>
+
+#include "block_launch.hpp"
+#include "kernel_cache.hpp"
+#include "rbdgrad/model.hpp"
+#include "rbdgrad/status.hpp"
+
+namespace rbdgrad::cuda {
+
+class SpecializedBlockKernel {
+ public:
+  /// Builds the kernel of `model` in f32 (single) or f64 for `device` (current), its shared memory
+  /// allowed up to `max_shared_bytes`. `cache_dir` as compile_with_cache's dir. Errors: unavailable
+  /// (no NVRTC), internal (compiling or loading failed: the message says which).
+  static Status load(const Model& model, bool single, int device, std::size_t max_shared_bytes,
+                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
+  ~SpecializedBlockKernel();
+  SpecializedBlockKernel(const SpecializedBlockKernel&) = delete;
+  SpecializedBlockKernel& operator=(const SpecializedBlockKernel&) = delete;
+
+  /// As launch_block_fused (block_launch.hpp), S the precision the kernel was built for.
+  template <class S>
+  cudaError_t launch(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
+                     cudaStream_t stream) const;
+
+  KernelOrigin origin() const { return origin_; }
+  /// Seconds spent compiling (0 from a cache) and loading.
+  double seconds() const { return seconds_; }
+  /// A failed write to the disk cache, else "".
+  const std::string& warning() const { return warning_; }
+
+ private:
+  SpecializedBlockKernel() = default;
+
+  cudaLibrary_t library_ = nullptr;
+  cudaKernel_t kernel_ = nullptr;
+  bool single_ = false;
+  KernelOrigin origin_ = KernelOrigin::kCompiled;
+  double seconds_ = 0;
+  std::string warning_;
+};
+
+}  // namespace rbdgrad::cuda

@@ -1,0 +1,190 @@
+// Tests for the robot-specific block kernel's generation and compilation (kernel_source.cpp,
+// nvrtc_compiler.cpp, kernel_cache.cpp). NVRTC needs no GPU: every shipped robot's kernel is
+// compiled here for the H200's architecture (sm_90), in CI too. Where NVRTC is not installed the
+// tests skip and say so. Running the compiled kernels needs a GPU (cuda_plugin_test.cpp).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "../../support/test_models.hpp"
+#include "kernel_cache.hpp"
+#include "kernel_source.hpp"
+#include "rbdgrad/embedded_robots.hpp"
+
+namespace rbdgrad::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+#define SKIP_WITHOUT_NVRTC()                                         \
+  do {                                                               \
+    std::string version;                                             \
+    if (Status s = cuda::nvrtc_version(version); !s)                 \
+      GTEST_SKIP() << "no NVRTC on this machine: " << s.message();   \
+  } while (0)
+
+// a fresh directory under the system's temporary one, removed at the end of the test
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    path = std::filesystem::temp_directory_path() /
+           ("rbdgrad-kernel-cache-" + std::to_string(::getpid()) + "-" +
+            std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+// a small program of its own (fast to compile), made unique by `tag` so that no other test has
+// put it in the process's memory cache
+cuda::NvrtcProgram tiny_program(const std::string& tag) {
+  cuda::NvrtcProgram p;
+  p.name = "tiny_" + tag + ".cu";
+  p.source = "// " + tag + "\ntemplate <class S> __global__ void scale(S* x, S a) { x[threadIdx.x] *= a; }\n";
+  p.options = {"-std=c++17", "--gpu-architecture=sm_90"};
+  p.name_expression = "scale<float>";
+  return p;
+}
+
+TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
+  const Model model = load_embedded("iiwa14");
+  const cuda::NvrtcProgram f64 = cuda::block_kernel_program(model, false, 90);
+  EXPECT_EQ(f64.name_expression,
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>>");
+  EXPECT_THAT(f64.source, HasSubstr("#include \"block_kernel_entry.hpp\""));
+  EXPECT_THAT(f64.options, ::testing::Contains("--gpu-architecture=sm_90"));
+  const cuda::NvrtcProgram f32 = cuda::block_kernel_program(load_embedded("talos_reduced"), true, 90);
+  EXPECT_EQ(f32.name_expression,
+            "rbdgrad::cuda::block_fused_kernel<float, rbdgrad::cuda::FixedSizeModelView<float, 32, " +
+                std::to_string(load_embedded("talos_reduced").max_depth()) + ">>");
+  bool entry = false;
+  for (const cuda::EmbeddedHeader& h : f64.headers) entry |= std::string(h.name) == "block_kernel_entry.hpp";
+  EXPECT_TRUE(entry) << "the entry header is not embedded";
+  // a robot's name from a URDF cannot end the source's comment line
+  Model odd = model;
+  odd.name = "evil\n#error injected";
+  EXPECT_THAT(cuda::block_kernel_program(odd, false, 90).source, ::testing::Not(HasSubstr("\n#error")));
+}
+
+// Every shipped robot's kernel, both precisions, compiles with NVRTC for sm_90.
+TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
+  SKIP_WITHOUT_NVRTC();
+  for (std::string_view name : embedded_robot_names()) {
+    const Model model = load_embedded(std::string(name));
+    for (bool single : {false, true}) {
+      const auto start = std::chrono::steady_clock::now();
+      cuda::NvrtcOutput out;
+      const Status s = cuda::nvrtc_compile(cuda::block_kernel_program(model, single, 90), out);
+      ASSERT_TRUE(s.is_ok()) << name << (single ? " f32" : " f64") << ": " << s.message();
+      EXPECT_GT(out.cubin.size(), 1000u) << name;
+      EXPECT_THAT(out.kernel_symbol, HasSubstr("block_fused_kernel")) << name;
+      std::printf("%s %s: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(), single ? "f32" : "f64",
+                  out.cubin.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+  }
+}
+
+TEST(KernelSource, CompileErrorsCarryNvrtcsLog) {
+  SKIP_WITHOUT_NVRTC();
+  cuda::NvrtcProgram p = tiny_program("broken");
+  p.source += "this is not C++;\n";
+  cuda::NvrtcOutput out;
+  const Status s = cuda::nvrtc_compile(p, out);
+  EXPECT_EQ(s.code(), StatusCode::kInternal);
+  EXPECT_THAT(s.message(), HasSubstr("compiling tiny_broken.cu with NVRTC"));
+  EXPECT_THAT(s.message(), HasSubstr("error"));
+}
+
+TEST(KernelCache, KeysDifferWithEveryInput) {
+  const Model model = load_embedded("iiwa14");
+  const cuda::NvrtcProgram p = cuda::block_kernel_program(model, false, 90);
+  const std::string key = cuda::kernel_cache_key(p, "13.0");
+  EXPECT_EQ(key.size(), 16u);
+  EXPECT_EQ(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, false, 90), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(p, "13.1"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, true, 90), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, false, 100), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(load_embedded("panda"), false, 90), "13.0"));
+  cuda::NvrtcProgram other_header = p;
+  other_header.headers.pop_back();
+  EXPECT_NE(key, cuda::kernel_cache_key(other_header, "13.0"));
+}
+
+TEST(KernelCache, CompilesOnceThenServesFromMemoryAndDisk) {
+  SKIP_WITHOUT_NVRTC();
+  TempDir dir;
+  const cuda::NvrtcProgram p = tiny_program("cache" + std::to_string(::getpid()));
+  cuda::NvrtcOutput first, second, refreshed;
+  cuda::KernelOrigin origin{};
+  std::string warning;
+  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, first, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
+  EXPECT_EQ(warning, "");
+  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, second, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kMemoryCache);
+  EXPECT_EQ(second.cubin, first.cubin);
+  EXPECT_EQ(second.kernel_symbol, first.kernel_symbol);
+  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), true, refreshed, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
+  // the file: the kernel's symbol and the cubin, under the program's key
+  std::string version;
+  ASSERT_TRUE(cuda::nvrtc_version(version).is_ok());
+  const std::filesystem::path file = dir.path / (cuda::kernel_cache_key(p, version) + ".cubin");
+  ASSERT_TRUE(std::filesystem::exists(file)) << file;
+  std::ifstream in(file, std::ios::binary);
+  const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(all, "rbdgrad-cubin 1\n" + first.kernel_symbol + "\n" + first.cubin);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path), std::filesystem::directory_iterator()), 1)
+      << "a temporary file was left behind";
+}
+
+TEST(KernelCache, ReadsWhatADaemonBeforeItWrote) {
+  SKIP_WITHOUT_NVRTC();
+  TempDir dir;
+  std::filesystem::create_directories(dir.path);
+  const cuda::NvrtcProgram p = tiny_program("disk" + std::to_string(::getpid()));
+  std::string version;
+  ASSERT_TRUE(cuda::nvrtc_version(version).is_ok());
+  const std::filesystem::path file = dir.path / (cuda::kernel_cache_key(p, version) + ".cubin");
+  std::ofstream(file, std::ios::binary) << "rbdgrad-cubin 1\nsymbol\nnot a real cubin";
+  cuda::NvrtcOutput out;
+  cuda::KernelOrigin origin{};
+  std::string warning;
+  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, out, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kDiskCache);
+  EXPECT_EQ(out.kernel_symbol, "symbol");
+  EXPECT_EQ(out.cubin, "not a real cubin");
+}
+
+TEST(KernelCache, IgnoresFilesItDidNotWriteAndSaysWhenItCannotWrite) {
+  SKIP_WITHOUT_NVRTC();
+  TempDir dir;
+  std::filesystem::create_directories(dir.path);
+  const cuda::NvrtcProgram p = tiny_program("foreign" + std::to_string(::getpid()));
+  std::string version;
+  ASSERT_TRUE(cuda::nvrtc_version(version).is_ok());
+  std::ofstream(dir.path / (cuda::kernel_cache_key(p, version) + ".cubin"), std::ios::binary) << "something else";
+  cuda::NvrtcOutput out;
+  cuda::KernelOrigin origin{};
+  std::string warning;
+  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, out, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
+  // a cache directory that cannot be made: the kernel still compiles, with a warning
+  const std::filesystem::path blocked = dir.path / "a_file";
+  std::ofstream(blocked) << "x";
+  const cuda::NvrtcProgram q = tiny_program("unwritable" + std::to_string(::getpid()));
+  ASSERT_TRUE(cuda::compile_with_cache(q, (blocked / "sub").string(), false, out, origin, warning).is_ok());
+  EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
+  EXPECT_THAT(warning, HasSubstr("kernel cache: cannot create"));
+}
+
+}  // namespace
+}  // namespace rbdgrad::testing

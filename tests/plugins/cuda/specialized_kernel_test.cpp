@@ -1,0 +1,115 @@
+// The block kernel compiled for the robot at load (CudaInstance::specialize, NVRTC) against the
+// generic one compiled into the plugin: the same numbers to rounding for every shipped robot, both
+// precisions, both input kinds, odd and even batch sizes, every output written. Needs a GPU and
+// NVRTC; skips with the reason without either. (The plugin tests, cuda_plugin_test.cpp, check the
+// plugin's default, this kernel, against the Pinocchio reference.)
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "../../support/test_models.hpp"
+#include "../support/plugin_harness.hpp"
+#include "cuda_instance.hpp"
+#include "rbdgrad/embedded_robots.hpp"
+
+namespace rbdgrad::cuda {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr std::uint32_t kGradient =
+    RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+
+template <class S>
+testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
+  testing::BatchArrays<S> a(n, nv);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> q(-2.0, 2.0), qd(-3.0, 3.0), u(-20.0, 20.0);
+  for (S& x : a.q) x = static_cast<S>(q(rng));
+  for (S& x : a.qd) x = static_cast<S>(qd(rng));
+  for (S& x : a.u) x = static_cast<S>(u(rng));
+  return a;
+}
+
+template <class S>
+void compare_kernels(CudaInstance& instance, const std::string& robot, int nv) {
+  const std::uint32_t precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
+  // f64: the two builds differ only in constant folding and unrolling, which may contract other
+  // multiply-adds; f32 the same, at its own rounding
+  const double tolerance = std::is_same_v<S, float> ? 2e-4 : 1e-11;
+  for (const std::uint32_t input : {RBDGRAD_INPUT_TAU, RBDGRAD_INPUT_QDD}) {
+    for (const std::size_t n : {1u, 7u, 33u, 1000u}) {
+      const std::string where = robot + (std::is_same_v<S, float> ? " f32" : " f64") +
+                                (input == RBDGRAD_INPUT_TAU ? " from tau" : " from qdd") + ", " + std::to_string(n) +
+                                " states";
+      auto generic = random_states<S>(nv, n, static_cast<unsigned>(n) + input);
+      auto specific = generic;
+      KernelOptions options;
+      options.robot_specific = false;
+      ASSERT_TRUE(instance.set_kernel_options(options));
+      rbdgrad_batch b = generic.batch(precision, input, kGradient, false, false);
+      ASSERT_TRUE(instance.compute(&b)) << where;
+      ASSERT_TRUE(instance.last_used_block_kernel()) << where;
+      ASSERT_FALSE(instance.last_used_robot_specific_kernel()) << where;
+      options.robot_specific = true;
+      ASSERT_TRUE(instance.set_kernel_options(options));
+      b = specific.batch(precision, input, kGradient, false, false);
+      ASSERT_TRUE(instance.compute(&b)) << where;
+      ASSERT_TRUE(instance.last_used_robot_specific_kernel()) << where;
+      for (std::size_t k = 0; k < n; ++k) ASSERT_EQ(specific.state_status[k], 0) << where << ", state " << k;
+      for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_MINV, RBDGRAD_OUTPUT_DQDD_DQ,
+                                       RBDGRAD_OUTPUT_DQDD_DQD}) {
+        if (flag == RBDGRAD_OUTPUT_QDD && input == RBDGRAD_INPUT_QDD) continue;  // the input itself
+        const std::vector<S>& want = generic.out(flag);
+        const std::vector<S>& got = specific.out(flag);
+        for (std::size_t e = 0; e < want.size(); ++e) {
+          // the arrays start at a marker (77): every element must have been written, and finite
+          ASSERT_TRUE(std::isfinite(got[e])) << where << ", output " << flag << " element " << e;
+          ASSERT_NEAR(got[e], want[e], tolerance * (1 + std::abs(double(want[e]))))
+              << where << ", output " << flag << " element " << e;
+        }
+      }
+    }
+  }
+}
+
+TEST(CudaRobotSpecificKernel, MatchesTheGenericKernelOnEveryRobot) {
+  for (std::string_view name : embedded_robot_names()) {
+    const Model model = testing::load_embedded(std::string(name));
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    EXPECT_THAT(instance->kernel_description(), HasSubstr("generic kernel")) << "before specialize()";
+    if (Status s = instance->specialize(""); !s) {
+      if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
+      FAIL() << name << ": " << s.message();
+    }
+    EXPECT_THAT(instance->kernel_description(), HasSubstr("kernel compiled for this robot (f64: ")) << name;
+    std::printf("%s: %s\n", std::string(name).c_str(), instance->kernel_description().c_str());
+    compare_kernels<double>(*instance, std::string(name), model.nv);
+    compare_kernels<float>(*instance, std::string(name), model.nv);
+  }
+}
+
+// Instances of one model share one compilation (the process's memory cache).
+TEST(CudaRobotSpecificKernel, SecondInstanceOfAModelReusesTheCompilation) {
+  const Model model = testing::load_embedded("panda");
+  std::unique_ptr<CudaInstance> first, second;
+  if (Status s = CudaInstance::create(model, 0, first); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  if (Status s = first->specialize(""); !s) {
+    if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
+    FAIL() << s.message();
+  }
+  ASSERT_TRUE(CudaInstance::create(model, 0, second));
+  ASSERT_TRUE(second->specialize(""));
+  EXPECT_THAT(second->kernel_description(), HasSubstr("f64: memory cache"));
+  EXPECT_THAT(second->kernel_description(), HasSubstr("f32: memory cache"));
+}
+
+}  // namespace
+}  // namespace rbdgrad::cuda
