@@ -34,6 +34,7 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
   }
   // copies instead of host memory read and written by the kernel (mapped I/O, the default here)
   rbdgrad::cuda::KernelOptions options;
+  options.time_kernel = true;
   if (!mapped_io) options.mapped_io_max_kib = 0;
   if (!instance->set_kernel_options(options)) return 1;
   const std::size_t v = n * static_cast<std::size_t>(model.nv);

@@ -322,15 +322,17 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // the first kernel starts the clock; the one-thread kernels run one after the other (they
     // share the workspace), the block kernel's may overlap (shared memory only)
     cudaError_t e = cudaSuccess;
-    if (c == 0) e = cudaEventRecord(kernel_start_, stream);
-    else if (!block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
+    if (c == 0 && kernel_.time_kernel) e = cudaEventRecord(kernel_start_, stream);
+    else if (c > 0 && !block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
     if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
     const SpecializedBlockKernel* specific = kernel_.robot_specific ? specialized<S>() : nullptr;
     const cudaError_t launched = !block    ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
                                  : specific ? specific->launch<S>(view<S>(), p, shape, stream)
                                             : launch_block_fused<S>(view<S>(), p, shape, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
-    if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
+    // each runtime call costs about a microsecond of a small batch's time: only the events used
+    if (c + 1 < chunks || kernel_.time_kernel)
+      if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
 
     if (one_copy) {
       if (Status s = cuda_status(cudaMemcpyAsync(h_out, d_out, out_layout.size(), cudaMemcpyDeviceToHost, stream),
@@ -353,12 +355,14 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
           !s)
         return fail(s);
     }
-    if (Status s = cuda_status(cudaEventRecord(copied_[c], stream), "cudaEventRecord"); !s) return fail(s);
+    if (chunks > 1)
+      if (Status s = cuda_status(cudaEventRecord(copied_[c], stream), "cudaEventRecord"); !s) return fail(s);
   }
 
   // outputs out of the pinned block, chunk by chunk as they arrive
   for (std::size_t c = 0; c < chunks; ++c) {
-    if (Status s = cuda_status(cudaEventSynchronize(copied_[c]), "running the fused kernel"); !s) return fail(s);
+    const cudaError_t done = chunks > 1 ? cudaEventSynchronize(copied_[c]) : cudaStreamSynchronize(streams_[0]);
+    if (Status s = cuda_status(done, "running the fused kernel"); !s) return fail(s);
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     for (int f = 0; f < kOutputCount; ++f) {
       if (!(b.outputs & (1u << f)) || out_pinned[f]) continue;
@@ -366,10 +370,12 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       std::memcpy(static_cast<unsigned char*>(caller_output(b, f)) + at, h_out + out_at[f] + at, bytes);
     }
   }
-  if (Status s = cuda_status(cudaEventElapsedTime(&last_kernel_ms_, kernel_start_, kernel_end_[chunks - 1]),
-                             "cudaEventElapsedTime");
-      !s)
-    return s;
+  last_kernel_ms_ = 0;
+  if (kernel_.time_kernel)
+    if (Status s = cuda_status(cudaEventElapsedTime(&last_kernel_ms_, kernel_start_, kernel_end_[chunks - 1]),
+                               "cudaEventElapsedTime");
+        !s)
+      return s;
   last_block_ = block;
   last_specific_ = block && kernel_.robot_specific && specialized<S>() != nullptr;
   last_mapped_ = mapped;

@@ -64,6 +64,8 @@ struct KernelOptions {
   std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
   // the block kernel compiled for the robot (specialize()) where there is one, else the generic
   bool robot_specific = true;
+  // CUDA events around the kernels, for last_kernel_ms (benchmarks): two more calls per batch
+  bool time_kernel = false;
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none).
@@ -118,7 +120,8 @@ class CudaInstance {
   const std::string& device_name() const { return device_name_; }
   std::size_t slots() const { return slots_; }
   /// The kernel's own time in the last successful compute(), from CUDA events around the launch
-  /// (resolution about 0.5 us): the benchmarks' kernel-only figure. 0 before the first.
+  /// (resolution about 0.5 us): the benchmarks' kernel-only figure. 0 unless the options'
+  /// time_kernel was set for that compute().
   float last_kernel_ms() const { return last_kernel_ms_; }
 
  private:
@@ -135,9 +138,13 @@ class CudaInstance {
   std::string device_name_;
   std::size_t workspace_bytes_;
   cudaStream_t streams_[2] = {};  // chunks alternate between them
-  cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch
-  cudaEvent_t kernel_end_[kMaxChunks] = {};  // after each chunk's launch: the next chunk's kernel waits for it
-  cudaEvent_t copied_[kMaxChunks] = {};      // after each chunk's outputs reached the pinned block
+  cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch (time_kernel)
+  // after each chunk's launch but the last (and after the last, with time_kernel): the next
+  // chunk's kernel waits for it
+  cudaEvent_t kernel_end_[kMaxChunks] = {};
+  // after each chunk's outputs reached the pinned block (batches of several chunks; one chunk
+  // waits for its stream)
+  cudaEvent_t copied_[kMaxChunks] = {};
   float last_kernel_ms_ = 0;
   KernelOptions kernel_;
   std::size_t max_shared_bytes_ = 0;  // per block, the device's opt-in limit

@@ -46,6 +46,7 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   ASSERT_TRUE(instance->compute(&b));
   EXPECT_TRUE(instance->last_used_block_kernel());
   EXPECT_TRUE(instance->last_used_mapped_io()) << "100 states: no copies by default";
+  EXPECT_EQ(instance->last_kernel_ms(), 0.0f) << "the kernel is timed only when asked";
   auto with_m = equal_states(model.nv, 100);
   b = batch_of(with_m, gradient | RBDGRAD_OUTPUT_M);
   ASSERT_TRUE(instance->compute(&b));
@@ -67,6 +68,17 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   // copies or none, either kernel: the same numbers
   for (std::size_t e = 0; e < dq.size(); ++e)
     EXPECT_NEAR(dq[e], again.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e])));
+  // timed on request, in one chunk and in several (a pinned caller's large batch, below, runs
+  // chunks untimed)
+  options.time_kernel = true;
+  ASSERT_TRUE(instance->set_kernel_options(options));
+  for (const std::size_t n : {100u, 4 * 8192u}) {
+    auto timed = equal_states(model.nv, n);
+    b = batch_of(timed, gradient);
+    ASSERT_TRUE(instance->compute(&b));
+    EXPECT_GT(instance->last_kernel_ms(), 0.0f) << n << " states";
+    EXPECT_NEAR(timed.out(RBDGRAD_OUTPUT_DQDD_DQ)[0], dq[0], 1e-9 * (1 + std::abs(dq[0]))) << n << " states";
+  }
   options.block_shape = {1024, 2};
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
