@@ -156,6 +156,16 @@ const BackendPool::Backend* BackendPool::find(std::string_view name) const noexc
   return nullptr;
 }
 
+InstancePool* BackendPool::pool(std::string_view backend, const ServedModel& model) const {
+  const Backend* b = find(backend);
+  return b == nullptr || model.index >= b->pools.size() ? nullptr : b->pools[model.index].get();
+}
+
+const Plugin* BackendPool::plugin(std::string_view backend) const {
+  const Backend* b = find(backend);
+  return b == nullptr ? nullptr : b->plugin;
+}
+
 Status BackendPool::unavailable_backend(std::string_view name) const {
   std::string why = "not configured";
   // the last attempt under this name says most (a later plugin may have replaced an earlier one)

@@ -100,6 +100,12 @@ class BackendPool {
   /// (it supports f64, f32)".
   Status route(const ServedModel& model, std::string_view backend, std::uint32_t precision, Route& out) const;
 
+  /// The pool of the backend named `backend` for `model`, or null when it does not serve it (or
+  /// is not loaded). For the scheduler: its load, its instances' own models, calibration.
+  InstancePool* pool(std::string_view backend, const ServedModel& model) const;
+  /// The loaded plugin named `backend`, or null.
+  const Plugin* plugin(std::string_view backend) const;
+
  private:
   // one loaded plugin with its pools, indexed by model; parallel to states_ where loaded
   struct Backend {

@@ -64,7 +64,17 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   if (!precision_flag(request_.precision(), precision)) {
     return invalid_argument(prefix_ + "precision has unknown value " + std::to_string(request_.precision()));
   }
-  if (Status s = context.backends().route(*model, backend, precision, route_); !s) return with_prefix(prefix_, s);
+  static_assert(RBDGRAD_OUTPUT_QDD == 1u << (v1::OUTPUT_QDD - 1) && RBDGRAD_OUTPUT_DQDD_DQ == 1u << (v1::OUTPUT_DQDD_DQ - 1) &&
+                    RBDGRAD_OUTPUT_M == 1u << (v1::OUTPUT_M - 1),
+                "Output k of the proto is output flag 1 << (k - 1) of the plugin ABI");
+  RouteQuery query;
+  query.backend = backend;
+  query.precision = precision;
+  query.n = request_.num_states();
+  // the outputs as flags (Output k is flag 1 << (k - 1)); unknown values are refused below
+  for (int o : request_.outputs())
+    if (o >= 1 && o <= 8) query.outputs |= 1u << (o - 1);
+  if (Status s = context.scheduler().route(*model, query, route_, predicted_us_); !s) return with_prefix(prefix_, s);
   context_ = &context;
   model_ = model;
 

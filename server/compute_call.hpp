@@ -22,6 +22,7 @@
 #include "rbdgrad/status.hpp"
 #include "rbdgrad/v1/dynamics.pb.h"
 #include "request_batch.hpp"
+#include "scheduler.hpp"
 
 namespace rbdgrad::server {
 
@@ -31,12 +32,17 @@ class ComputeContext {
  public:
   /// \param fixed_point_fallback the backend that recomputes fixed-point states that left the
   ///        format's range (ServerConfig::fixed_point_fallback); "" = none.
-  ComputeContext(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
-                 std::string fixed_point_fallback = "")
-      : models_(models), backends_(backends), limits_(limits), fixed_point_fallback_(std::move(fixed_point_fallback)) {}
+  ComputeContext(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
+                 const LimitsConfig& limits, std::string fixed_point_fallback = "")
+      : models_(models),
+        backends_(backends),
+        scheduler_(scheduler),
+        limits_(limits),
+        fixed_point_fallback_(std::move(fixed_point_fallback)) {}
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return backends_; }
+  const Scheduler& scheduler() const noexcept { return scheduler_; }
   const LimitsConfig& limits() const noexcept { return limits_; }
   const std::string& fixed_point_fallback() const noexcept { return fixed_point_fallback_; }
 
@@ -55,6 +61,7 @@ class ComputeContext {
  private:
   const ModelRegistry& models_;
   const BackendPool& backends_;
+  const Scheduler& scheduler_;
   const LimitsConfig limits_;
   const std::string fixed_point_fallback_;
   std::atomic<std::int64_t> in_flight_{0};
@@ -86,7 +93,7 @@ class ComputeCall : public PoolJob {
   /// Hands a prepared call to its backend's pool: run() then happens once (twice, the second time
   /// on the fallback backend's pool, when fixed-point states fell back), maybe before submit()
   /// returns; complete() once at the end.
-  void submit() { route_.pool->submit(*this, batch_.num_states()); }
+  void submit() { route_.pool->submit(*this, batch_.num_states(), predicted_us_); }
 
   /// The outcome, valid once complete() is called: ok (and the response serialized into
   /// response_bytes) or the error, with the backend's code and a message naming the request.
@@ -119,6 +126,7 @@ class ComputeCall : public PoolJob {
   rbdgrad::v1::ComputeResponse response_;
   RequestBatch batch_;
   Route route_;
+  double predicted_us_ = 0;  // the scheduler's prediction of the primary run's compute time
   Status status_;
   Clock::duration compute_time_{};  // in the backends, both runs
   Clock::time_point started_;       // of the primary run

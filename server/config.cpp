@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 #include <string_view>
+#include <utility>
 
 namespace rbdgrad::server {
 namespace {
@@ -214,13 +215,54 @@ class Parser {
     return Status::ok();
   }
 
+  Status parse_scheduler(const YAML::Node& node, SchedulerConfig& out) const {
+    if (Status s = require_map("scheduler", node); !s) return s;
+    if (Status s = check_keys("scheduler", node,
+                              {"policy", "small_n", "large_n", "calibrate", "calibration_file", "calibration_sizes"});
+        !s)
+      return s;
+    if (node["policy"]) {
+      if (Status s = get_string("scheduler.policy", node["policy"], out.policy); !s) return s;
+      if (out.policy != "cost" && out.policy != "threshold")
+        return error_at("scheduler.policy", node["policy"], "expected cost or threshold; got '" + out.policy + "'");
+    }
+    for (const auto& [key, dst] : {std::pair{"small_n", &out.small_n}, std::pair{"large_n", &out.large_n}}) {
+      if (!node[key]) continue;
+      if (Status s = get_int(std::string("scheduler.") + key, node[key], -1, kMaxInt32, *dst); !s) return s;
+    }
+    if (node["calibrate"]) {
+      if (Status s = get_string("scheduler.calibrate", node["calibrate"], out.calibrate); !s) return s;
+      if (out.calibrate != "start" && out.calibrate != "off")
+        return error_at("scheduler.calibrate", node["calibrate"], "expected start or off; got '" + out.calibrate + "'");
+    }
+    if (node["calibration_file"]) {
+      if (Status s = get_string("scheduler.calibration_file", node["calibration_file"], out.calibration_file); !s)
+        return s;
+    }
+    if (node["calibration_sizes"]) {
+      const YAML::Node list = node["calibration_sizes"];
+      if (!list.IsSequence() || list.size() == 0)
+        return error_at("scheduler.calibration_sizes", list, "expected a non-empty list of batch sizes");
+      out.calibration_sizes.clear();
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        int64_t n = 0;
+        const std::string key = "scheduler.calibration_sizes[" + std::to_string(i) + "]";
+        if (Status s = get_int(key, list[i], 1, kMaxInt32, n); !s) return s;
+        if (!out.calibration_sizes.empty() && n <= out.calibration_sizes.back())
+          return error_at(key, list[i], "sizes must ascend");
+        out.calibration_sizes.push_back(n);
+      }
+    }
+    return Status::ok();
+  }
+
   Status parse_root(const YAML::Node& root, ServerConfig& out) const {
     // an empty file keeps every default
     if (root.IsNull()) return Status::ok();
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
                               {"listen", "models", "plugins", "workers", "inline_max_states",
-                               "fixed_point_fallback", "limits", "log_level"});
+                               "fixed_point_fallback", "limits", "scheduler", "log_level"});
         !s) {
       return s;
     }
@@ -246,6 +288,9 @@ class Parser {
     }
     if (root["limits"]) {
       if (Status s = parse_limits(root["limits"], out.limits); !s) return s;
+    }
+    if (root["scheduler"]) {
+      if (Status s = parse_scheduler(root["scheduler"], out.scheduler); !s) return s;
     }
     if (root["log_level"]) {
       std::string lvl;
@@ -395,6 +440,13 @@ std::string describe(const ServerConfig& cfg) {
      << ", max_message_bytes " << cfg.limits.max_message_bytes << ", max_concurrent_requests "
      << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "
      << cfg.limits.max_queue_delay_us << "\n";
+  os << "scheduler: policy " << cfg.scheduler.policy;
+  if (cfg.scheduler.policy == "threshold")
+    os << " (small_n " << cfg.scheduler.small_n << ", large_n " << cfg.scheduler.large_n << "; -1 = from calibration)";
+  os << ", calibrate " << cfg.scheduler.calibrate << ", calibration_file "
+     << (cfg.scheduler.calibration_file.empty() ? "none" : cfg.scheduler.calibration_file) << ", sizes";
+  for (int64_t n : cfg.scheduler.calibration_sizes) os << " " << n;
+  os << "\n";
   os << "log_level: " << log_level_name(cfg.log_level) << "\n";
   return os.str();
 }

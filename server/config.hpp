@@ -73,6 +73,29 @@ struct LimitsConfig {
   bool operator==(const LimitsConfig&) const = default;
 };
 
+// How requests without a backend hint are routed (server/scheduler.hpp), and the latency models
+// the routing uses.
+struct SchedulerConfig {
+  // "cost" (default): the backend predicted to finish first (its queue's wait plus its latency
+  // model at N); "threshold": N <= small_n to the fpga, N >= large_n to cuda, else the cpu.
+  std::string policy = "cost";
+  // The threshold policy's limits; -1 (default) = where the latency models cross. Range [-1, 2^31-1].
+  int64_t small_n = -1;
+  int64_t large_n = -1;
+  // "start" (default): at start-up, time every backend on every model and precision that the
+  // calibration file does not hold (a backend's own model, the FPGA's cycle count, is taken as
+  // given); "off": only the file and the backends' own models. Without any model the cpu (else the
+  // first backend that serves the model) takes every request, as with no scheduler.
+  std::string calibrate = "start";
+  // Where the measured models are kept across restarts; an entry is reused while the backend's
+  // hardware, plugin, options and the model are unchanged. Default "" = not kept.
+  std::string calibration_file;
+  // Batch sizes timed, ascending, each in [1, 2^31-1]. Default 1, 4, 16, 64, 256, 1024.
+  std::vector<int64_t> calibration_sizes = {1, 4, 16, 64, 256, 1024};
+
+  bool operator==(const SchedulerConfig&) const = default;
+};
+
 enum class LogLevel { kTrace, kDebug, kInfo, kWarn, kError };
 
 // "trace", "debug", "info", "warn", "error".
@@ -102,6 +125,8 @@ struct ServerConfig {
   std::string fixed_point_fallback = "cpu";
   // Admission limits (see LimitsConfig).
   LimitsConfig limits;
+  // Routing and calibration (see SchedulerConfig).
+  SchedulerConfig scheduler;
   // Least severe log level written. Default info.
   LogLevel log_level = LogLevel::kInfo;
 

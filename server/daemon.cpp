@@ -33,6 +33,8 @@ std::string backend_line(const BackendState& b) {
   // a stand-in says so first: "ready (csim: ...)" must not read as hardware
   if (!b.description.mode.empty()) os << "(" << b.description.mode << ") ";
   if (!b.description.device.empty()) os << "on " << b.description.device << " ";
+  // e.g. which CUDA kernel runs, for the first model
+  if (!b.description.detail.empty()) os << "[" << b.description.detail << "] ";
   os << "from " << b.path << ": version " << (b.info.version.empty() ? "?" : b.info.version) << ", precisions "
      << precision_list(b.info.precisions) << ", max_batch ";
   if (b.info.max_batch == 0) {
@@ -90,8 +92,16 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   }
   if (d->backends_->ready_count() == 0) return unavailable("no backend is available: nothing can serve requests");
 
-  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, cfg.limits, RBDGRAD_VERSION,
-                                                  cfg.fixed_point_fallback);
+  d->scheduler_ = std::make_unique<Scheduler>(*d->backends_, d->models_, cfg.scheduler);
+  d->scheduler_->calibrate(false, [](const std::string& line) { spdlog::info("{}", line); });
+  for (const auto& m : d->models_.models()) {
+    std::string text;
+    for (const auto& [n, backend] : d->scheduler_->crossovers(*m, 0, std::uint64_t{1} << 20))
+      text += (text.empty() ? "" : ", ") + backend + " from N = " + std::to_string(n);
+    if (!text.empty()) spdlog::info("routing of model '{}' ({} policy): fastest {}", m->name, cfg.scheduler.policy, text);
+  }
+  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, cfg.limits,
+                                                  RBDGRAD_VERSION, cfg.fixed_point_fallback);
   out = std::move(d);
   return Status::ok();
 }

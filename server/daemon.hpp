@@ -17,7 +17,9 @@
 #include "config.hpp"
 #include "dynamics_service.hpp"
 #include "listen_address.hpp"
+#include "scheduler.hpp"
 #include "model_registry.hpp"
+#include "scheduler.hpp"
 #include "rbdgrad/status.hpp"
 
 namespace rbdgrad::server {
@@ -37,8 +39,9 @@ struct DaemonOptions {
 class Daemon {
  public:
   /// Loads the configured models (any failure is fatal: the error names the model) and the
-  /// backends (a missing or broken plugin is logged and skipped; unavailable when none is ready).
-  /// Logs each model's summary and each backend's state. Serves nothing yet.
+  /// backends (a missing or broken plugin is logged and skipped; unavailable when none is ready),
+  /// then calibrates the scheduler (config.scheduler). Logs each model's summary, each backend's
+  /// state and each latency model. Serves nothing yet.
   static Status create(DaemonOptions options, std::unique_ptr<Daemon>& out);
 
   /// Stops (as stop()) if still serving.
@@ -69,6 +72,7 @@ class Daemon {
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return *backends_; }
+  const Scheduler& scheduler() const noexcept { return *scheduler_; }
   const DynamicsService& service() const noexcept { return *service_; }
 
  private:
@@ -77,6 +81,7 @@ class Daemon {
   DaemonOptions options_;
   ModelRegistry models_;
   std::unique_ptr<BackendPool> backends_;
+  std::unique_ptr<Scheduler> scheduler_;
   std::unique_ptr<DynamicsService> service_;
   std::vector<ListenAddress> addresses_;
   int tcp_port_ = 0;

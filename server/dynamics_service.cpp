@@ -104,6 +104,7 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
     info->set_reason(state.reason);
     info->set_mode(state.description.mode);
     info->set_device(state.description.device);
+    info->set_detail(state.description.detail);
     if (!state.info.name.empty()) {
       add_precisions(state.info.precisions, *info);
       info->set_max_batch(state.info.max_batch);
@@ -125,9 +126,54 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
   return out;
 }
 
-DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
-                                 std::string version, std::string fixed_point_fallback)
-    : context_(models, backends, limits, std::move(fixed_point_fallback)), server_info_(describe_server(backends, limits, version)) {
+void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends, const ModelRegistry& models,
+                         v1::GetServerInfoResponse& out) {
+  const CalibrationTable table = scheduler.table();
+  for (v1::BackendInfo& info : *out.mutable_backends()) {
+    for (const CalibrationEntry& e : table.entries()) {
+      if (e.backend != info.name()) continue;
+      v1::LatencyModelInfo* m = info.add_latency_models();
+      m->set_model(e.model);
+      m->set_precision(precision_enum(e.precision));
+      m->set_source(e.source);
+      m->set_fixed_us(e.latency.fixed_us());
+      m->set_per_state_us(e.latency.per_state_us());
+      for (const LatencyModel::Point& p : e.latency.points()) {
+        m->add_n(p.n);
+        m->add_us(p.us);
+      }
+    }
+    for (const auto& model : models.models()) {
+      const InstancePool* pool = backends.pool(info.name(), *model);
+      if (pool == nullptr) continue;
+      const PoolLoad load = pool->load();
+      v1::QueueInfo* q = info.add_queues();
+      q->set_model(model->name);
+      q->set_queued(static_cast<std::uint32_t>(load.queued));
+      q->set_running(static_cast<std::uint32_t>(load.running));
+      q->set_pending_us(load.pending_us);
+    }
+  }
+  out.set_scheduler_policy(scheduler.config().policy);
+  for (const auto& model : models.models()) {
+    v1::RoutingInfo* r = out.add_routing();
+    r->set_model(model->name);
+    for (const auto& [n, backend] : scheduler.crossovers(*model, 0, std::uint64_t{1} << 20)) {
+      v1::RoutingInfo::Crossover* c = r->add_crossovers();
+      c->set_from_n(n);
+      c->set_backend(backend_enum(backend));
+      c->set_backend_name(backend);
+    }
+    const auto [small_n, large_n] = scheduler.thresholds(*model);
+    r->set_small_n(small_n);
+    r->set_large_n(large_n);
+  }
+}
+
+DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
+                                 const LimitsConfig& limits, std::string version, std::string fixed_point_fallback)
+    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback)),
+      server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
     v1::ModelSummary* s = list_models_.add_models();
     s->set_name(m->name);
@@ -184,6 +230,7 @@ grpc::ServerUnaryReactor* DynamicsService::GetServerInfo(grpc::CallbackServerCon
                                                          const v1::GetServerInfoRequest* /*request*/,
                                                          v1::GetServerInfoResponse* response) {
   *response = server_info_;
+  describe_scheduling(context_.scheduler(), context_.backends(), context_.models(), *response);
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   reactor->Finish(grpc::Status::OK);
   return reactor;

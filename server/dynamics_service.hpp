@@ -15,6 +15,7 @@
 #include "compute_stream.hpp"
 #include "config.hpp"
 #include "model_registry.hpp"
+#include "scheduler.hpp"
 #include "rbdgrad/v1/dynamics.grpc.pb.h"
 
 namespace rbdgrad::server {
@@ -26,10 +27,10 @@ using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
-  /// `models` and `backends` must outlive the service; `version` is GetServerInfo's;
+  /// `models`, `backends` and `scheduler` must outlive the service; `version` is GetServerInfo's;
   /// `fixed_point_fallback` is ServerConfig's ("" = none).
-  DynamicsService(const ModelRegistry& models, const BackendPool& backends, const LimitsConfig& limits,
-                  std::string version, std::string fixed_point_fallback = "");
+  DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
+                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "");
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.
@@ -72,5 +73,9 @@ rbdgrad::v1::GetModelResponse describe_model(const ServedModel& model);
 /// "fpga" as unavailable ("not configured") when they were not tried, and the limits.
 rbdgrad::v1::GetServerInfoResponse describe_server(const BackendPool& backends, const LimitsConfig& limits,
                                                    const std::string& version);
+/// What changes while the daemon runs, added to describe_server's answer: each backend's latency
+/// models and queues, and each model's routing (crossovers, thresholds) with the policy.
+void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends, const ModelRegistry& models,
+                         rbdgrad::v1::GetServerInfoResponse& out);
 
 }  // namespace rbdgrad::server

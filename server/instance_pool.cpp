@@ -26,27 +26,33 @@ bool InstancePool::take_work(PoolJob*& job, PluginInstance*& instance) {
   if (head_ == nullptr || free_.empty()) return false;
   job = std::exchange(head_, head_->next_);
   if (head_ == nullptr) tail_ = nullptr;
+  --queued_;
   job->next_ = nullptr;
   instance = free_.back();
   free_.pop_back();
   return true;
 }
 
-void InstancePool::give_back(PluginInstance* instance) {
+void InstancePool::give_back(PluginInstance* instance, double predicted_us) {
   bool queued = false;
   {
     std::lock_guard lock(mutex_);
     free_.push_back(instance);
     queued = head_ != nullptr;
+    pending_us_ -= predicted_us;
+    // rounding must not leave a phantom backlog once everything has run
+    if (head_ == nullptr && free_.size() == instances_.size()) pending_us_ = 0;
   }
   // a job queued while every instance was busy: a pool thread takes it now
   if (queued) work_.notify_one();
 }
 
-void InstancePool::submit(PoolJob& job, std::uint64_t num_states) {
+void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predicted_us) {
   PluginInstance* instance = nullptr;
+  job.predicted_us_ = predicted_us;
   {
     std::lock_guard lock(mutex_);
+    pending_us_ += predicted_us;
     // inline only when nothing waits: a job never overtakes an earlier one
     if (num_states <= options_.inline_max_states && head_ == nullptr && !free_.empty()) {
       instance = free_.back();
@@ -59,14 +65,27 @@ void InstancePool::submit(PoolJob& job, std::uint64_t num_states) {
         head_ = &job;
       }
       tail_ = &job;
+      ++queued_;
     }
   }
   if (instance == nullptr) {
     work_.notify_one();
     return;
   }
-  job.run(*instance);
-  give_back(instance);
+  job.run(*instance);  // the job may be gone after this
+  give_back(instance, predicted_us);
+}
+
+PoolLoad InstancePool::load() const {
+  std::lock_guard lock(mutex_);
+  return {queued_, instances_.size() - free_.size(), pending_us_};
+}
+
+double InstancePool::predicted_wait_us() const {
+  std::lock_guard lock(mutex_);
+  // an instance is free and nothing waits: no wait, whatever runs elsewhere
+  if (head_ == nullptr && !free_.empty()) return 0;
+  return pending_us_ / static_cast<double>(instances_.size());
 }
 
 void InstancePool::thread_loop() {
@@ -79,8 +98,9 @@ void InstancePool::thread_loop() {
       work_.wait(lock, [&] { return take_work(job, instance) || (stop_ && head_ == nullptr); });
       if (job == nullptr) return;
     }
-    job->run(*instance);
-    give_back(instance);
+    const double predicted_us = job->predicted_us_;
+    job->run(*instance);  // the job may be gone after this
+    give_back(instance, predicted_us);
   }
 }
 

@@ -34,6 +34,14 @@ class PoolJob {
  private:
   friend class InstancePool;
   PoolJob* next_ = nullptr;  // intrusive FIFO link: queueing allocates nothing
+  double predicted_us_ = 0;  // the scheduler's prediction, counted in the pool's pending work
+};
+
+// What a pool has to do, for the scheduler and GetServerInfo.
+struct PoolLoad {
+  std::size_t queued = 0;   // jobs waiting for an instance
+  std::size_t running = 0;  // instances computing
+  double pending_us = 0;    // the predicted time of the jobs queued and running
 };
 
 class InstancePool {
@@ -56,21 +64,33 @@ class InstancePool {
 
   /// Runs `job` (of `num_states` states) exactly once, now on this thread or later on a pool
   /// thread, in submission order relative to the other queued jobs. Never blocks on a busy
-  /// instance. Thread-safe.
-  void submit(PoolJob& job, std::uint64_t num_states);
+  /// instance. Thread-safe. `predicted_us`, the scheduler's prediction of the job's compute
+  /// time, counts in load().pending_us until the job has run.
+  void submit(PoolJob& job, std::uint64_t num_states, double predicted_us = 0);
 
   std::size_t size() const noexcept { return instances_.size(); }
+  /// Instance i, for what the ABI allows at any time (describe, estimate_latency); never compute.
+  const PluginInstance& instance(std::size_t i) const { return *instances_[i]; }
+
+  /// The work queued and running now. Thread-safe.
+  PoolLoad load() const;
+  /// How long a job submitted now would wait for an instance, by the predictions: the pending
+  /// work spread over the instances. Thread-safe.
+  double predicted_wait_us() const;
 
  private:
   void thread_loop();
   // under mutex_: hands a free instance to the queue's head, if both exist
   bool take_work(PoolJob*& job, PluginInstance*& instance);
-  void give_back(PluginInstance* instance);
+  // returns the instance and takes the finished job's prediction off the pending work
+  void give_back(PluginInstance* instance, double predicted_us);
 
   const Options options_;
   std::vector<std::unique_ptr<PluginInstance>> instances_;
 
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
+  std::size_t queued_ = 0;   // jobs in the FIFO
+  double pending_us_ = 0;    // predictions of the queued and running jobs
   std::condition_variable work_;       // a job and a free instance, or stop_
   std::vector<PluginInstance*> free_;  // (size()) reserved once: push/pop never allocate
   PoolJob* head_ = nullptr;            // FIFO of waiting jobs

@@ -26,6 +26,8 @@ class LoadedLibrary {
   const rbdgrad_plugin_api* api = nullptr;  // set once the table has been checked
   // the table's describe_instance when the plugin is of minor >= 1 and has one, else null
   rbdgrad_error* (*describe_instance)(const rbdgrad_instance*, rbdgrad_instance_info*) = nullptr;
+  // the table's estimate_latency when the plugin is of minor >= 2 and has one, else null
+  rbdgrad_error* (*estimate_latency)(const rbdgrad_instance*, uint32_t, uint32_t, uint64_t, double*) = nullptr;
   std::string name;                         // the plugin's name: the prefix of its errors
 
  private:
@@ -39,9 +41,11 @@ namespace {
 constexpr size_t kTableSizeV1_0 =
     offsetof(rbdgrad_plugin_api, error_delete) + sizeof(rbdgrad_plugin_api::error_delete);
 
-// API 1.1 appended describe_instance.
+// API 1.1 appended describe_instance, 1.2 estimate_latency.
 constexpr size_t kTableSizeV1_1 =
     offsetof(rbdgrad_plugin_api, describe_instance) + sizeof(rbdgrad_plugin_api::describe_instance);
+constexpr size_t kTableSizeV1_2 =
+    offsetof(rbdgrad_plugin_api, estimate_latency) + sizeof(rbdgrad_plugin_api::estimate_latency);
 
 std::string api_version(uint32_t major, uint32_t minor) {
   return std::to_string(major) + "." + std::to_string(minor);
@@ -145,6 +149,7 @@ Status Plugin::load(const std::string& path, std::unique_ptr<Plugin>& out) {
   if (Status status = check_table(*api, where); !status) return status;
   library->api = api;
   if (api->struct_size >= kTableSizeV1_1) library->describe_instance = api->describe_instance;
+  if (api->struct_size >= kTableSizeV1_2) library->estimate_latency = api->estimate_latency;
 
   // what the backend can do, copied: its strings live only as long as the library
   rbdgrad_plugin_info raw{};
@@ -230,6 +235,21 @@ Status PluginInstance::describe(InstanceDescription& out) const {
     return s;
   out.mode = raw.mode != nullptr ? raw.mode : "";
   out.device = raw.device != nullptr ? raw.device : "";
+  out.detail = raw.detail != nullptr ? raw.detail : "";  // a 1.1 plugin leaves it null
+  return Status::ok();
+}
+
+Status PluginInstance::estimate_latency(uint32_t precision, uint32_t input_kind, uint64_t n, double& us) const {
+  if (handle_ == nullptr) return failed_precondition("estimate_latency on a moved-from plugin instance");
+  if (library_->estimate_latency == nullptr) return unimplemented(library_->name + " has no latency model of its own");
+  double value = 0;
+  if (Status s = take_error(*library_->api, library_->name + ": estimate_latency",
+                            library_->estimate_latency(handle_, precision, input_kind, n, &value));
+      !s)
+    return s;
+  if (!(value >= 0) || value > 1e12)
+    return Status(StatusCode::kInternal, library_->name + ": estimate_latency gave " + std::to_string(value) + " us");
+  us = value;
   return Status::ok();
 }
 

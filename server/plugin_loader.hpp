@@ -33,7 +33,8 @@ struct PluginInfo {
 // How an instance runs (describe_instance, plugin API 1.1); empty for older plugins.
 struct InstanceDescription {
   std::string mode;    // "" = the backend itself; "csim" = the FPGA kernel's C simulation on the host
-  std::string device;  // "NVIDIA H200 (device 0)"; "" = unnamed
+  std::string device;  // "NVIDIA H200 (device 0)"; "" = unnamed. The hardware only (it keys calibration)
+  std::string detail;  // "kernel compiled for this robot (...)" (API 1.2); "" = nothing more
 };
 
 // One model prepared on one backend (create_instance .. destroy_instance). Move-only; a moved-from
@@ -55,6 +56,11 @@ class PluginInstance {
   /// What the plugin says the instance runs on; empty (and ok) when its table has no
   /// describe_instance.
   Status describe(InstanceDescription& out) const;
+
+  /// The plugin's own prediction of a gradient batch's time (estimate_latency, API 1.2), in us.
+  /// Errors: unimplemented when the plugin has no model of its own (the host then measures it),
+  /// or the plugin's error; internal for a negative or absurd figure.
+  Status estimate_latency(uint32_t precision, uint32_t input_kind, uint64_t n, double& us) const;
 
  private:
   friend class Plugin;

@@ -39,11 +39,33 @@ ServerInfo decode(const v1::GetServerInfoResponse& r) {
     s.max_batch = b.max_batch();
     s.mode = b.mode();
     s.device = b.device();
+    s.detail = b.detail();
+    for (const v1::LatencyModelInfo& m : b.latency_models()) {
+      LatencyModelStatus l;
+      l.model = m.model();
+      l.precision = from_proto(m.precision());
+      l.source = m.source();
+      l.fixed_us = m.fixed_us();
+      l.per_state_us = m.per_state_us();
+      l.n.assign(m.n().begin(), m.n().end());
+      l.us.assign(m.us().begin(), m.us().end());
+      s.latency_models.push_back(std::move(l));
+    }
+    for (const v1::QueueInfo& q : b.queues()) s.queues.push_back({q.model(), q.queued(), q.running(), q.pending_us()});
     info.backends.push_back(std::move(s));
   }
   info.max_states_per_request = r.max_states_per_request();
   info.max_message_bytes = r.max_message_bytes();
   info.max_concurrent_requests = r.max_concurrent_requests();
+  info.scheduler_policy = r.scheduler_policy();
+  for (const v1::RoutingInfo& ri : r.routing()) {
+    RoutingStatus routing;
+    routing.model = ri.model();
+    for (const v1::RoutingInfo::Crossover& c : ri.crossovers()) routing.crossovers.emplace_back(c.from_n(), c.backend_name());
+    routing.small_n = ri.small_n();
+    routing.large_n = ri.large_n();
+    info.routing.push_back(std::move(routing));
+  }
   return info;
 }
 

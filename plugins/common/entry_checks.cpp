@@ -1,5 +1,6 @@
 #include "entry_checks.hpp"
 
+#include <cstddef>
 #include <string>
 
 namespace rbdgrad::plugin {
@@ -13,6 +14,15 @@ Status check_struct_size(const char* what, std::size_t got, std::size_t want) {
 Status check_info(const rbdgrad_plugin_info* info) {
   if (info == nullptr) return invalid_argument("info is NULL");
   return check_struct_size("info", info->struct_size, sizeof(rbdgrad_plugin_info));
+}
+
+Status check_instance_info(const rbdgrad_instance_info* info) {
+  if (info == nullptr) return invalid_argument("info is NULL");
+  return check_struct_size("instance_info", info->struct_size, offsetof(rbdgrad_instance_info, detail));
+}
+
+bool instance_info_has_detail(const rbdgrad_instance_info& info) {
+  return info.struct_size >= offsetof(rbdgrad_instance_info, detail) + sizeof(info.detail);
 }
 
 Status check_can_run_question(const rbdgrad_model_desc* model, std::uint64_t n) {

@@ -16,6 +16,11 @@ Status check_struct_size(const char* what, std::size_t got, std::size_t want);
 /// get_info's argument: not NULL, and of at least this build's size.
 Status check_info(const rbdgrad_plugin_info* info);
 
+/// describe_instance's argument: not NULL, and at least the 1.1 struct (mode and device).
+Status check_instance_info(const rbdgrad_instance_info* info);
+/// Whether `info` (checked) has room for the 1.2 field detail.
+bool instance_info_has_detail(const rbdgrad_instance_info& info);
+
 /// can_run's model and n, before the backend's own answer: a model (not NULL, of at least this
 /// build's size, nv >= 1) and n >= 1.
 Status check_can_run_question(const rbdgrad_model_desc* model, std::uint64_t n);

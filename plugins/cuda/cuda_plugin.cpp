@@ -22,7 +22,6 @@
 // Completes the ABI's opaque instance type for this plugin.
 struct rbdgrad_instance {
   std::unique_ptr<rbdgrad::cuda::CudaInstance> gpu;
-  std::string device;  // describe_instance's: the GPU and the kernel
 };
 
 namespace rbdgrad::plugin {
@@ -118,7 +117,6 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = made->gpu->set_kernel_options(kernel); !s) return s;
     // a kernel that cannot be compiled leaves the generic one, and the description says why
     if (specialize) (void)made->gpu->specialize(cache_dir);
-    made->device = made->gpu->device_name() + "; " + made->gpu->kernel_description();
     *instance = made.release();
     return Status::ok();
   });
@@ -138,10 +136,10 @@ void destroy_instance(rbdgrad_instance* instance) {
 rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_instance_info* info) {
   return guarded([&]() -> Status {
     if (instance == nullptr || !instance->gpu) return invalid_argument("instance is NULL");
-    if (info == nullptr) return invalid_argument("info is NULL");
-    if (Status s = check_struct_size("instance_info", info->struct_size, sizeof(rbdgrad_instance_info)); !s) return s;
+    if (Status s = check_instance_info(info); !s) return s;
     info->mode = "";
-    info->device = instance->device.c_str();
+    info->device = instance->gpu->device_name().c_str();
+    if (instance_info_has_detail(*info)) info->detail = instance->gpu->kernel_description().c_str();
     return Status::ok();
   });
 }
@@ -159,6 +157,7 @@ constexpr rbdgrad_plugin_api kApi = {
     &error_message,
     &error_delete,
     &describe_instance,
+    nullptr,  // estimate_latency: the host times the GPU (calibration)
 };
 
 }  // namespace

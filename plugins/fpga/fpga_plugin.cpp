@@ -14,6 +14,7 @@
 #include "common/options.hpp"
 #include "host/csim_runner.hpp"
 #include "host/fpga_instance.hpp"
+#include "host/latency_model.hpp"
 #include "rbdgrad/plugin_api.h"
 #ifdef RBDGRAD_HAVE_XRT
 #include "host/xrt_runner.hpp"
@@ -26,6 +27,7 @@
 // Completes the ABI's opaque instance type for this plugin.
 struct rbdgrad_instance {
   std::unique_ptr<rbdgrad::fpga::FpgaInstance> fpga;
+  rbdgrad::Model model;  // for estimate_latency
 };
 
 namespace rbdgrad::plugin {
@@ -108,6 +110,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = fpga::FpgaInstance::create(model, std::move(runner), static_cast<std::size_t>(chunk), made->fpga);
         !s)
       return s;
+    made->model = std::move(model);
     *instance = made.release();
     return Status::ok();
   });
@@ -127,11 +130,33 @@ void destroy_instance(rbdgrad_instance* instance) {
 rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_instance_info* info) {
   return guarded([&]() -> Status {
     if (instance == nullptr || !instance->fpga) return invalid_argument("instance is NULL");
-    if (info == nullptr) return invalid_argument("info is NULL");
-    if (Status st = check_struct_size("instance_info", info->struct_size, sizeof(rbdgrad_instance_info)); !st)
-      return st;
+    if (Status st = check_instance_info(info); !st) return st;
     info->mode = instance->fpga->runner().mode();
     info->device = instance->fpga->runner().device().c_str();
+    if (instance_info_has_detail(*info)) info->detail = "";
+    return Status::ok();
+  });
+}
+
+// The cycle model (host/latency_model.hpp) at its default clock: what the card would take, also
+// while the kernel runs as a C simulation (whose own time says nothing about the card's).
+rbdgrad_error* estimate_latency(const rbdgrad_instance* instance, std::uint32_t precision, std::uint32_t input_kind,
+                                std::uint64_t n, double* microseconds) {
+  return guarded([&]() -> Status {
+    if (instance == nullptr || !instance->fpga) return invalid_argument("instance is NULL");
+    if (microseconds == nullptr) return invalid_argument("microseconds is NULL");
+    if (n == 0) return invalid_argument("n is 0");
+    if (precision != RBDGRAD_PRECISION_FIXED_Q16_16)
+      return unimplemented("the fpga backend computes in fixed point (Q16.16) only");
+    if (input_kind != RBDGRAD_INPUT_TAU && input_kind != RBDGRAD_INPUT_QDD)
+      return invalid_argument("input_kind is " + std::to_string(input_kind));
+    fpga::LatencyEstimate e;
+    if (Status s = fpga::estimate_latency(instance->model, fpga::KernelTiming{}, static_cast<std::size_t>(n),
+                                          input_kind == RBDGRAD_INPUT_TAU ? fpga::InputKind::kTau : fpga::InputKind::kQdd,
+                                          e);
+        !s)
+      return s;
+    *microseconds = e.batch_us;
     return Status::ok();
   });
 }
@@ -149,6 +174,7 @@ constexpr rbdgrad_plugin_api kApi = {
     &error_message,
     &error_delete,
     &describe_instance,
+    &estimate_latency,
 };
 
 }  // namespace

@@ -156,6 +156,38 @@ TEST(ServerConfigTest, FixedPointFallbackMustBeAString) {
   EXPECT_NE(s.message().find("fixed_point_fallback"), std::string::npos) << s.message();
 }
 
+TEST(ServerConfigTest, SchedulerSection) {
+  ServerConfig cfg;
+  EXPECT_EQ(cfg.scheduler.policy, "cost");
+  EXPECT_EQ(cfg.scheduler.calibrate, "start");
+  EXPECT_EQ(cfg.scheduler.calibration_file, "");
+  ASSERT_TRUE(parse_config("scheduler:\n  policy: threshold\n  small_n: 16\n  large_n: 512\n  calibrate: off\n"
+                           "  calibration_file: /var/cache/rbdgrad/cal.yaml\n  calibration_sizes: [1, 8, 64]\n",
+                           "t", cfg));
+  EXPECT_EQ(cfg.scheduler.policy, "threshold");
+  EXPECT_EQ(cfg.scheduler.small_n, 16);
+  EXPECT_EQ(cfg.scheduler.large_n, 512);
+  EXPECT_EQ(cfg.scheduler.calibrate, "off");
+  EXPECT_EQ(cfg.scheduler.calibration_file, "/var/cache/rbdgrad/cal.yaml");
+  EXPECT_EQ(cfg.scheduler.calibration_sizes, (std::vector<int64_t>{1, 8, 64}));
+  EXPECT_NE(describe(cfg).find("scheduler: policy threshold (small_n 16, large_n 512"), std::string::npos);
+  const std::pair<const char*, const char*> bad[] = {
+      {"scheduler:\n  policy: fastest\n", "scheduler.policy"},
+      {"scheduler:\n  small_n: -2\n", "scheduler.small_n"},
+      {"scheduler:\n  calibrate: always\n", "scheduler.calibrate"},
+      {"scheduler:\n  calibration_sizes: [4, 4]\n", "sizes must ascend"},
+      {"scheduler:\n  calibration_sizes: []\n", "non-empty list"},
+      {"scheduler:\n  calibration_sizes: [0]\n", "scheduler.calibration_sizes[0]"},
+      {"scheduler:\n  sizes: [1]\n", "unknown key 'scheduler.sizes'"},
+  };
+  for (const auto& [text, want] : bad) {
+    ServerConfig c;
+    const Status s = parse_config(text, "t", c);
+    EXPECT_FALSE(s.is_ok()) << text;
+    EXPECT_NE(s.message().find(want), std::string::npos) << text << ": " << s.message();
+  }
+}
+
 TEST(ServerConfigTest, UnknownKeyIsNamedWithItsPath) {
   ServerConfig cfg;
   const Status s = parse_config("limits:\n  max_state: 5\n", "rbdgradd.yaml", cfg);

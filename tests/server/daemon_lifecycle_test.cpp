@@ -132,7 +132,8 @@ TEST(ComputeContext, RefusesEverythingOnceShuttingDown) {
   std::unique_ptr<BackendPool> backends = BackendPool::create({}, models);
   LimitsConfig limits;
   limits.max_concurrent_requests = 1;
-  ComputeContext context(models, *backends, limits);
+  const Scheduler scheduler(*backends, models, SchedulerConfig{});
+  ComputeContext context(models, *backends, scheduler, limits);
   EXPECT_EQ(context.admit(), ComputeContext::Admission::kAdmitted);
   EXPECT_EQ(context.admit(), ComputeContext::Admission::kTooManyInFlight);
   EXPECT_EQ(context.in_flight(), 1);

@@ -113,6 +113,8 @@ inline DaemonOptions test_options(const std::string& socket_name) {
   cfg.plugins = {{FAKE_CUDA_PATH, {{"device", "0"}}}};
   cfg.workers = 2;
   cfg.limits.max_states_per_request = 1000;
+  // no timing at start-up (the routing tests turn it on): auto-routed requests go to the cpu
+  cfg.scheduler.calibrate = "off";
   options.cpu_plugin_path = RBDGRAD_CPU_PLUGIN_PATH;
   return options;
 }

@@ -1,6 +1,7 @@
 // `rbdgrad info`: prints GetServerInfo.
 #include "info_command.hpp"
 
+#include <cstdio>
 #include <iostream>
 
 #include "server_connection.hpp"
@@ -45,9 +46,37 @@ int run_info_command(int argc, const char* const* argv, int first) {
     // a stand-in says so before anything else: csim computes like the FPGA, not as fast
     if (!b.mode.empty()) std::cout << " (" << b.mode << ")";
     if (!b.device.empty()) std::cout << " on " << b.device;
+    if (!b.detail.empty()) std::cout << " [" << b.detail << "]";
     std::cout << ", precisions ";
     for (std::size_t i = 0; i < b.precisions.size(); ++i) std::cout << (i ? ", " : "") << precision_name(b.precisions[i]);
     std::cout << ", max batch " << (b.max_batch ? std::to_string(b.max_batch) : "unlimited") << "\n";
+    for (const LatencyModelStatus& m : b.latency_models) {
+      char line[200];
+      std::snprintf(line, sizeof line, "    latency %s %s: %.4g us for 1 state", m.model.c_str(),
+                    precision_name(m.precision), m.fixed_us);
+      std::cout << line;
+      if (m.n.size() >= 2) {
+        std::snprintf(line, sizeof line, ", %.4g us for %llu, then %.3g us/state", m.us.back(),
+                      static_cast<unsigned long long>(m.n.back()), m.per_state_us);
+        std::cout << line;
+      }
+      std::cout << " (" << m.source << ")\n";
+    }
+    for (const QueueStatus& q : b.queues) {
+      if (q.queued == 0 && q.running == 0) continue;
+      std::cout << "    queue " << q.model << ": " << q.queued << " waiting, " << q.running << " running, "
+                << static_cast<long long>(q.pending_us) << " us predicted\n";
+    }
+  }
+  std::cout << "routing (" << (info.scheduler_policy.empty() ? "?" : info.scheduler_policy) << " policy):\n";
+  for (const RoutingStatus& r : info.routing) {
+    std::cout << "  " << r.model << ": ";
+    if (r.crossovers.empty()) std::cout << "no latency models: the cpu takes requests without a backend";
+    for (std::size_t i = 0; i < r.crossovers.size(); ++i)
+      std::cout << (i ? ", " : "") << r.crossovers[i].second << " from N = " << r.crossovers[i].first;
+    if (info.scheduler_policy == "threshold")
+      std::cout << " (small_n " << r.small_n << ", large_n " << r.large_n << ")";
+    std::cout << "\n";
   }
   std::cout << "limits: " << info.max_states_per_request << " states per request, messages up to "
             << bytes_text(info.max_message_bytes) << ", " << info.max_concurrent_requests << " requests in flight\n";

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -44,6 +45,35 @@ struct ModelDescription {
   std::string summary;                   // human-readable, several lines
 };
 
+// One latency model of the server's scheduler: a backend's time per batch for one model and
+// precision, interpolated between its points.
+struct LatencyModelStatus {
+  std::string model;
+  Precision precision = Precision::kAuto;
+  std::string source;        // "measured 2026-12-02T08:30:00Z", "the plugin's own model (...)"
+  double fixed_us = 0;       // predicted time of one state
+  double per_state_us = 0;   // the rate per state beyond the last point
+  std::vector<std::uint64_t> n;  // the points: batch sizes ...
+  std::vector<double> us;        // ... and microseconds per batch
+};
+
+// What one backend's instances of one model have to do at the moment of the call.
+struct QueueStatus {
+  std::string model;
+  std::uint32_t queued = 0;   // requests waiting for an instance
+  std::uint32_t running = 0;  // instances computing
+  double pending_us = 0;      // the predicted compute time of those requests
+};
+
+// Where requests without a backend hint go, for one model: from each crossover's N on, its backend
+// is predicted fastest (each in its best precision).
+struct RoutingStatus {
+  std::string model;
+  std::vector<std::pair<std::uint64_t, std::string>> crossovers;  // (from N, backend name)
+  std::int64_t small_n = -1;  // the threshold policy's limits; -1 = does not apply
+  std::int64_t large_n = -1;
+};
+
 // One backend of the server, ready or not.
 struct BackendStatus {
   Backend backend = Backend::kAuto;   // kCpu, kCuda, kFpga; kAuto for one the client does not know
@@ -55,6 +85,9 @@ struct BackendStatus {
   std::string mode;                   // "" as itself; "csim": the FPGA kernel's C simulation on the
                                       // server's CPU (the FPGA's arithmetic, not its speed)
   std::string device;                 // the device it runs on, when the backend names it
+  std::string detail;                 // more on how it runs (e.g. which CUDA kernel), or ""
+  std::vector<LatencyModelStatus> latency_models;
+  std::vector<QueueStatus> queues;    // one per model it serves
 };
 
 // Client::server_info.
@@ -64,6 +97,8 @@ struct ServerInfo {
   std::uint32_t max_states_per_request = 0;
   std::uint64_t max_message_bytes = 0;
   std::uint32_t max_concurrent_requests = 0;
+  std::string scheduler_policy;         // "cost" or "threshold"
+  std::vector<RoutingStatus> routing;   // one per model
 };
 
 }  // namespace rbdgrad

@@ -36,7 +36,7 @@ extern "C" {
 #endif
 
 #define RBDGRAD_PLUGIN_API_MAJOR 1
-#define RBDGRAD_PLUGIN_API_MINOR 1
+#define RBDGRAD_PLUGIN_API_MINOR 2
 
 /* Precisions, usable as bit flags in rbdgrad_plugin_info.precisions. */
 typedef enum rbdgrad_precision {
@@ -147,7 +147,11 @@ typedef struct rbdgrad_instance_info {
   size_t struct_size;  /* set by the caller to sizeof(rbdgrad_instance_info)                        */
   const char* mode;    /* "" when the backend runs as itself; else how it stands in, e.g. "csim"
                           (the FPGA kernel's C simulation on the host CPU)                          */
-  const char* device;  /* the device it runs on, for logs: "NVIDIA H200 (device 0)"; "" = unnamed  */
+  const char* device;  /* the device it runs on, for logs: "NVIDIA H200 (device 0)"; "" = unnamed.
+                          It names the hardware only: a host may key measurements by it          */
+  /* (1.2) more on how it runs, for logs: "kernel compiled for this robot (f64: disk cache, ...)";
+   * "" = nothing. Written only when struct_size covers it (a 1.1 host passes the shorter struct). */
+  const char* detail;
 } rbdgrad_instance_info;
 
 typedef struct rbdgrad_plugin_api {
@@ -181,6 +185,14 @@ typedef struct rbdgrad_plugin_api {
 
   /* (1.1) Describes an instance; may be NULL (nothing to say). Any thread, any time. */
   rbdgrad_error* (*describe_instance)(const rbdgrad_instance* instance, rbdgrad_instance_info* info);
+
+  /* (1.2) The backend's own prediction of one compute call's time, in microseconds, for n states in
+   * `precision` from `input_kind`, the gradient outputs (qdd, d qdd/d q, d qdd/d qd) asked: for a
+   * backend with a model of hardware that running it here would not measure (the FPGA's cycle
+   * count while its kernel runs as a C simulation). May be NULL; RBDGRAD_ERROR_UNSUPPORTED also
+   * means no model: the host then times the backend itself (calibration). Any thread, any time. */
+  rbdgrad_error* (*estimate_latency)(const rbdgrad_instance* instance, uint32_t precision, uint32_t input_kind,
+                                     uint64_t n, double* microseconds);
 } rbdgrad_plugin_api;
 
 /* The one exported symbol. Returns NULL when the host's API version is not compatible. */

@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "common/model_desc.hpp"
 #include "host/axi_packing.hpp"
 #include "host/fpga_instance.hpp"
+#include "host/latency_model.hpp"
 #include "kernel/gradient_top.hpp"
 #include "rbdgrad/algorithm/minverse.hpp"
 #include "rbdgrad/fixed_point.hpp"
@@ -164,6 +166,31 @@ TEST(FpgaPluginCreate, CsimSaysSoInItsDescription) {
   ASSERT_FALSE(take(api(), api()->describe_instance(instance.get(), &info)));
   EXPECT_STREQ(info.mode, "csim");
   EXPECT_THAT(info.device, HasSubstr("C simulation"));
+}
+
+// The cycle model through the ABI (1.2 estimate_latency): what the card would take, also in csim.
+TEST(FpgaPluginEstimate, TheCycleModelOfABatch) {
+  const Model model = load_embedded("iiwa14");
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance = csim_instance(desc);
+  ASSERT_TRUE(instance);
+  ASSERT_NE(api()->estimate_latency, nullptr);
+  for (const std::uint64_t n : {1u, 16u, 1000u}) {
+    double us = -1;
+    ASSERT_FALSE(take(api(), api()->estimate_latency(instance.get(), RBDGRAD_PRECISION_FIXED_Q16_16,
+                                                     RBDGRAD_INPUT_TAU, n, &us)));
+    fpga::LatencyEstimate e;
+    ASSERT_TRUE(fpga::estimate_latency(model, fpga::KernelTiming{}, n, fpga::InputKind::kTau, e));
+    EXPECT_DOUBLE_EQ(us, e.batch_us) << n;
+  }
+  double us = 0;
+  std::optional<PluginError> e = take(api(), api()->estimate_latency(instance.get(), RBDGRAD_PRECISION_F64,
+                                                                     RBDGRAD_INPUT_TAU, 16, &us));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_UNSUPPORTED) << e->message;
+  e = take(api(), api()->estimate_latency(instance.get(), RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, 0, &us));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
 }
 
 // Every robot, both inputs, several chunk sizes (one state per run, a remainder, one run): each

@@ -29,7 +29,7 @@ inline void error_delete(rbdgrad_error*) {}
 constexpr rbdgrad_plugin_api valid_table() {
   return {sizeof(rbdgrad_plugin_api), RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR,
           &get_info, &can_run, &create_instance, &compute, &destroy_instance,
-          &error_code, &error_message, &error_delete, nullptr};
+          &error_code, &error_message, &error_delete, nullptr, nullptr};
 }
 
 }  // namespace fake

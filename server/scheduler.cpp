@@ -1,0 +1,220 @@
+#include "scheduler.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <limits>
+#include <mutex>
+#include <utility>
+
+namespace rbdgrad::server {
+
+namespace {
+
+constexpr std::uint32_t kPrecisionOrder[] = {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32,
+                                             RBDGRAD_PRECISION_FIXED_Q16_16};
+
+std::string utc_now() {
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+// the precision a backend runs a request in: the asked one if it has it, else (auto) its best
+std::uint32_t precision_on(const BackendState& b, std::uint32_t asked) {
+  if (asked != 0) return (b.info.precisions & asked) ? asked : 0;
+  for (std::uint32_t p : kPrecisionOrder)
+    if (b.info.precisions & p) return p;
+  return 0;
+}
+
+}  // namespace
+
+Scheduler::Scheduler(const BackendPool& backends, const ModelRegistry& models, SchedulerConfig config)
+    : backends_(backends), models_(models), config_(std::move(config)) {}
+
+void Scheduler::calibrate(bool remeasure, const std::function<void(const std::string&)>& log) {
+  CalibrationTable file;
+  if (!config_.calibration_file.empty()) {
+    const Status s = CalibrationTable::load(config_.calibration_file, file);
+    if (!s && s.code() != StatusCode::kNotFound) log("calibration: " + s.message() + "; measuring anew");
+  }
+  CalibrationOptions options;
+  options.sizes.assign(config_.calibration_sizes.begin(), config_.calibration_sizes.end());
+  CalibrationTable table;
+  bool measured = false;
+  for (const BackendState& backend : backends_.backends()) {
+    if (!backend.ready) continue;
+    const std::string hardware = backend_fingerprint(backend);
+    for (const auto& model : models_.models()) {
+      InstancePool* pool = backends_.pool(backend.name, *model);
+      if (pool == nullptr) continue;
+      const std::string fingerprint = hardware + "-" + model_fingerprint(*model);
+      for (std::uint32_t precision : kPrecisionOrder) {
+        if ((backend.info.precisions & precision) == 0) continue;
+        const std::string what = backend.name + " " + model->name + " " + precision_label(precision);
+        CalibrationEntry entry{backend.name, model->name, precision, fingerprint, "", {}};
+        // the plugin's own model first: it describes hardware that timing here may not reach
+        const Status estimated = estimated_latency(pool->instance(0), precision, options, entry.latency);
+        if (estimated) {
+          entry.source = "the plugin's own model (estimate_latency)";
+        } else if (estimated.code() != StatusCode::kUnimplemented) {
+          log("calibration: " + what + ": " + estimated.message());
+          continue;
+        } else if (const CalibrationEntry* saved = file.find(backend.name, model->name, precision);
+                   !remeasure && saved != nullptr && saved->fingerprint == fingerprint && !saved->latency.empty()) {
+          entry = *saved;
+        } else if (config_.calibrate == "off") {
+          continue;
+        } else {
+          // the plugin's own batch limit
+          CalibrationOptions o = options;
+          if (backend.info.max_batch != 0)
+            o.sizes.erase(std::remove_if(o.sizes.begin(), o.sizes.end(),
+                                         [&](std::uint64_t n) { return n > backend.info.max_batch; }),
+                          o.sizes.end());
+          // a pool is the backend's queue: measuring through it keeps the instance exclusive
+          const Status s = measure_latency(*pool, *model, precision, o, entry.latency);
+          if (!s) {
+            log("calibration: " + what + ": not measured: " + s.message());
+            continue;
+          }
+          entry.source = "measured " + utc_now();
+          measured = true;
+        }
+        log("calibration: " + what + ": " + entry.latency.summary() + " (" + entry.source + ")");
+        table.set(std::move(entry));
+      }
+    }
+  }
+  if (measured && !config_.calibration_file.empty()) {
+    // keep what the file holds for backends and models not served this time
+    CalibrationTable merged = file;
+    for (const CalibrationEntry& e : table.entries()) merged.set(e);
+    if (Status s = merged.save(config_.calibration_file); !s) log("calibration: " + s.message());
+  }
+  std::unique_lock lock(mutex_);
+  table_ = std::move(table);
+}
+
+std::vector<Scheduler::Candidate> Scheduler::candidates(const ServedModel& model, const RouteQuery& query) const {
+  std::vector<Candidate> out;
+  for (const BackendState& backend : backends_.backends()) {
+    if (!backend.ready) continue;
+    const InstancePool* pool = backends_.pool(backend.name, model);
+    if (pool == nullptr) continue;
+    const std::uint32_t precision = precision_on(backend, query.precision);
+    if (precision == 0) continue;
+    const Plugin* plugin = backends_.plugin(backend.name);
+    if (plugin == nullptr ||
+        !plugin->can_run(model.desc.desc(), static_cast<rbdgrad_precision>(precision), query.outputs, query.n))
+      continue;
+    out.push_back({&backend, precision, pool, table_.find(backend.name, model.name, precision)});
+  }
+  return out;
+}
+
+std::string Scheduler::choose_by_threshold(const ServedModel& model, const std::vector<Candidate>& c,
+                                           std::uint64_t n) const {
+  const auto [small_n, large_n] = thresholds_locked(model);
+  const char* want = "cpu";
+  if (small_n >= 0 && n <= static_cast<std::uint64_t>(small_n)) want = "fpga";
+  else if (large_n >= 0 && n >= static_cast<std::uint64_t>(large_n)) want = "cuda";
+  for (const Candidate& x : c)
+    if (x.state->name == want) return x.state->name;
+  return "";
+}
+
+Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us) const {
+  predicted_us = 0;
+  std::string chosen(query.backend);
+  std::shared_lock lock(mutex_);
+  if (chosen.empty()) {
+    const std::vector<Candidate> c = candidates(model, query);
+    if (config_.policy == "threshold") chosen = choose_by_threshold(model, c, query.n);
+    if (chosen.empty()) {
+      // cost: the earliest predicted completion among the backends with a model
+      double best = std::numeric_limits<double>::infinity();
+      for (const Candidate& x : c) {
+        if (x.entry == nullptr || x.entry->latency.empty()) continue;
+        const double t = x.pool->predicted_wait_us() + x.entry->latency.predict_us(query.n);
+        if (t < best) {
+          best = t;
+          chosen = x.state->name;
+        }
+      }
+    }
+    // no model at all: BackendPool's own rule (the cpu, else the first that serves the model)
+  }
+  if (Status s = backends_.route(model, chosen, query.precision, out); !s) return s;
+  if (const CalibrationEntry* e = table_.find(out.backend->name, model.name, out.precision))
+    predicted_us = e->latency.predict_us(query.n);
+  return Status::ok();
+}
+
+std::vector<Prediction> Scheduler::predictions(const ServedModel& model, const RouteQuery& query) const {
+  std::shared_lock lock(mutex_);
+  std::vector<Prediction> out;
+  for (const Candidate& x : candidates(model, query)) {
+    Prediction p{x.state->name, x.precision, x.pool->predicted_wait_us(), 0, false};
+    if (x.entry != nullptr && !x.entry->latency.empty()) {
+      p.compute_us = x.entry->latency.predict_us(query.n);
+      p.has_model = true;
+    }
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+CalibrationTable Scheduler::table() const {
+  std::shared_lock lock(mutex_);
+  return table_;
+}
+
+std::vector<std::pair<std::uint64_t, std::string>> Scheduler::crossovers(const ServedModel& model,
+                                                                          std::uint32_t precision,
+                                                                          std::uint64_t max_n) const {
+  std::shared_lock lock(mutex_);
+  return crossovers_locked(model, precision, max_n);
+}
+
+std::vector<std::pair<std::uint64_t, std::string>> Scheduler::crossovers_locked(const ServedModel& model,
+                                                                                 std::uint32_t precision,
+                                                                                 std::uint64_t max_n) const {
+  std::vector<const LatencyModel*> models;
+  std::vector<std::string> names;
+  for (const BackendState& backend : backends_.backends()) {
+    if (!backend.ready || backends_.pool(backend.name, model) == nullptr) continue;
+    const std::uint32_t p = precision_on(backend, precision);
+    const CalibrationEntry* e = p == 0 ? nullptr : table_.find(backend.name, model.name, p);
+    if (e == nullptr) continue;
+    models.push_back(&e->latency);
+    names.push_back(backend.name);
+  }
+  std::vector<std::pair<std::uint64_t, std::string>> out;
+  for (const Crossover& c : server::crossovers(models, max_n)) out.emplace_back(c.n, names[c.fastest]);
+  return out;
+}
+
+std::pair<std::int64_t, std::int64_t> Scheduler::thresholds(const ServedModel& model) const {
+  std::shared_lock lock(mutex_);
+  return thresholds_locked(model);
+}
+
+std::pair<std::int64_t, std::int64_t> Scheduler::thresholds_locked(const ServedModel& model) const {
+  std::int64_t small_n = config_.small_n, large_n = config_.large_n;
+  if (small_n >= 0 && large_n >= 0) return {small_n, large_n};
+  const auto c = crossovers_locked(model, 0, std::uint64_t{1} << 20);
+  std::int64_t derived_small = -1, derived_large = -1;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if (c[i].second == "fpga" && derived_small < 0)
+      derived_small = i + 1 < c.size() ? static_cast<std::int64_t>(c[i + 1].first) - 1 : std::int64_t{1} << 20;
+    if (c[i].second == "cuda" && derived_large < 0) derived_large = static_cast<std::int64_t>(c[i].first);
+  }
+  return {small_n >= 0 ? small_n : derived_small, large_n >= 0 ? large_n : derived_large};
+}
+
+}  // namespace rbdgrad::server

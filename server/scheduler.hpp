@@ -1,0 +1,101 @@
+// Routing of requests without a backend hint (issue 6), by a policy from the configuration:
+// - cost (default): each backend that serves the model in an acceptable precision and can run the
+//   request gets a predicted completion time, the wait for its pool (the predictions of the jobs
+//   queued and running there) plus its latency model at this N; the earliest wins;
+// - threshold: N <= small_n to the fpga, N >= large_n to cuda, the cpu in between (small_n and
+//   large_n from the configuration, or where the latency models cross when not set).
+// A hint pins the backend. An explicit precision is respected exactly (a request for f64 never
+// lands on the fixed-point FPGA); PRECISION_AUTO takes each backend's best. The latency models
+// come from calibration (calibration.hpp), kept in a CalibrationTable and its file.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <shared_mutex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "backend_pool.hpp"
+#include "calibration.hpp"
+#include "calibration_table.hpp"
+#include "config.hpp"
+#include "model_registry.hpp"
+#include "rbdgrad/status.hpp"
+
+namespace rbdgrad::server {
+
+/// A request as the scheduler sees it.
+struct RouteQuery {
+  std::string_view backend;    // the hint: "" = by policy
+  std::uint32_t precision = 0;  // one rbdgrad_precision flag, 0 = each backend's best
+  std::uint32_t outputs = 0;    // rbdgrad_output flags
+  std::uint64_t n = 0;          // states
+};
+
+/// One backend's predicted completion for a request, for GetServerInfo and the tests.
+struct Prediction {
+  std::string backend;
+  std::uint32_t precision = 0;
+  double wait_us = 0;     // the pool's predicted wait
+  double compute_us = 0;  // the latency model at N
+  bool has_model = false;
+};
+
+class Scheduler {
+ public:
+  Scheduler(const BackendPool& backends, const ModelRegistry& models, SchedulerConfig config);
+
+  /// Fills the latency models: entries of the configured file whose fingerprints still hold are
+  /// reused, the plugins' own models (the FPGA's cycle count) are taken as given, every other
+  /// (backend, model, precision) is measured on its pool (calibration.hpp), and the file is
+  /// rewritten when anything was measured. `remeasure` measures even what the file holds. Each
+  /// step is reported through `log` (a line each); failures there are logged and skipped: a
+  /// backend without a model is routed to only when no backend has one.
+  void calibrate(bool remeasure, const std::function<void(const std::string&)>& log);
+
+  /// Chooses the backend (by the hint or the policy) and precision of a request, and the
+  /// prediction of its compute time (0 without a model). Errors: BackendPool::route's.
+  Status route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us) const;
+
+  /// Every backend's prediction for a request on `model` with automatic backend (the policy's
+  /// candidates), in load order.
+  std::vector<Prediction> predictions(const ServedModel& model, const RouteQuery& query) const;
+
+  /// The latency models (a copy: calibration may replace them).
+  CalibrationTable table() const;
+  const SchedulerConfig& config() const noexcept { return config_; }
+
+  /// Where the fastest backend changes for `model` when each runs in its best precision (or in
+  /// `precision` when set), up to max_n: "fpga until 24, cpu until 180, cuda" as data.
+  std::vector<std::pair<std::uint64_t, std::string>> crossovers(const ServedModel& model, std::uint32_t precision,
+                                                                 std::uint64_t max_n) const;
+
+  /// The threshold policy's limits for `model`: the configured ones, else from crossovers (the
+  /// last N the fpga is fastest, the first N cuda is). -1 where it does not apply.
+  std::pair<std::int64_t, std::int64_t> thresholds(const ServedModel& model) const;
+
+ private:
+  struct Candidate {
+    const BackendState* state = nullptr;
+    std::uint32_t precision = 0;
+    const InstancePool* pool = nullptr;
+    const CalibrationEntry* entry = nullptr;  // under mutex_ (shared)
+  };
+  // the backends that could take the request, in load order (mutex_ held shared)
+  std::vector<Candidate> candidates(const ServedModel& model, const RouteQuery& query) const;
+  std::string choose_by_threshold(const ServedModel& model, const std::vector<Candidate>& c, std::uint64_t n) const;
+  // crossovers and thresholds with mutex_ already held
+  std::vector<std::pair<std::uint64_t, std::string>> crossovers_locked(const ServedModel& model,
+                                                                       std::uint32_t precision,
+                                                                       std::uint64_t max_n) const;
+  std::pair<std::int64_t, std::int64_t> thresholds_locked(const ServedModel& model) const;
+
+  const BackendPool& backends_;
+  const ModelRegistry& models_;
+  const SchedulerConfig config_;
+  mutable std::shared_mutex mutex_;  // guards table_ (calibrate writes it, routing reads)
+  CalibrationTable table_;
+};
+
+}  // namespace rbdgrad::server
