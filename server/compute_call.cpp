@@ -2,6 +2,7 @@
 #include "compute_call.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <exception>
 #include <limits>
 #include <string_view>
@@ -36,7 +37,8 @@ ComputeContext::Admission ComputeContext::admit() noexcept {
 }
 
 Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContext& context,
-                            std::int64_t stream_index) {
+                            std::int64_t stream_index, Clock::time_point deadline) {
+  deadline_ = deadline;
   const std::string stream_prefix = stream_index >= 0 ? "stream message " + std::to_string(stream_index) + ": " : "";
 
   // parse: a message that is no ComputeRequest is the client's error, not an INTERNAL one
@@ -67,6 +69,7 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   static_assert(RBDGRAD_OUTPUT_QDD == 1u << (v1::OUTPUT_QDD - 1) && RBDGRAD_OUTPUT_DQDD_DQ == 1u << (v1::OUTPUT_DQDD_DQ - 1) &&
                     RBDGRAD_OUTPUT_M == 1u << (v1::OUTPUT_M - 1),
                 "Output k of the proto is output flag 1 << (k - 1) of the plugin ABI");
+  hint_ = std::string(backend);
   RouteQuery query;
   query.backend = backend;
   query.precision = precision;
@@ -74,7 +77,22 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   // the outputs as flags (Output k is flag 1 << (k - 1)); unknown values are refused below
   for (int o : request_.outputs())
     if (o >= 1 && o <= 8) query.outputs |= 1u << (o - 1);
-  if (Status s = context.scheduler().route(*model, query, route_, predicted_us_); !s) return with_prefix(prefix_, s);
+  double wait_us = 0;
+  if (Status s = context.scheduler().route(*model, query, route_, predicted_us_, &wait_us); !s)
+    return with_prefix(prefix_, s);
+  // a request that would miss its deadline fails now instead of taking a backend's time
+  if (deadline_ != Clock::time_point::max() && predicted_us_ > 0) {
+    const double left_us = std::chrono::duration<double, std::micro>(deadline_ - Clock::now()).count();
+    if (wait_us + predicted_us_ > left_us) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "cannot finish before its deadline: %.0f us left, backend %s predicts %.0f us (%.0f us waiting "
+                    "for an instance + %.0f us computing)",
+                    std::max(0.0, left_us), route_.backend->name.c_str(), wait_us + predicted_us_, wait_us,
+                    predicted_us_);
+      return deadline_exceeded(prefix_ + text);
+    }
+  }
   context_ = &context;
   model_ = model;
 
@@ -124,11 +142,21 @@ bool ComputeCall::run_stage(PluginInstance& instance) {
     return true;
   }
   started_ = Clock::now();
-  const Status computed = instance.compute(batch_.batch());
-  compute_time_ = Clock::now() - started_;
+  if (started_ > deadline_) {
+    status_ = deadline_exceeded(prefix_ + "its deadline passed after " + std::to_string(micros(started_ - accepted_)) +
+                                " us in the queue, before it was computed");
+    return true;
+  }
+  Status computed = instance.compute(batch_.batch());
+  compute_time_ += Clock::now() - started_;
   if (computed) {
     finish();
     return true;
+  }
+  if (prepare_failover(computed)) {
+    // run() happens again on the next backend's pool (maybe right here); this run is over
+    route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+    return false;
   }
   bool fallback = false;
   if (Status s = prepare_fallback(computed, fallback); !s) {
@@ -144,6 +172,42 @@ bool ComputeCall::run_stage(PluginInstance& instance) {
   // run() happens again on the fallback's pool (maybe right here); this run is over
   fallback_route_.pool->submit(*this, fallback_states_.size());
   return false;
+}
+
+bool ComputeCall::prepare_failover(Status& failure) {
+  // a whole-backend failure (a lost device, a bug), of a request the scheduler placed
+  if (!hint_.empty() || (failure.code() != StatusCode::kUnavailable && failure.code() != StatusCode::kInternal))
+    return false;
+  failed_.push_back(route_.backend->name);
+  failovers_.push_back(failure.message());  // the plugin loader's message names the backend
+  RouteQuery query;
+  query.precision = 0;
+  std::uint32_t asked = 0;
+  if (precision_flag(request_.precision(), asked)) query.precision = asked;
+  query.n = request_.num_states();
+  for (int o : request_.outputs())
+    if (o >= 1 && o <= 8) query.outputs |= 1u << (o - 1);
+  query.exclude = &failed_;
+  Route next;
+  double predicted = 0;
+  if (Status s = context_->scheduler().route(*model_, query, next, predicted); !s) {
+    failure = Status(failure.code(), failure.message() + "; no failover: " + s.message());
+    return false;
+  }
+  // the inputs again, in the next backend's precision
+  response_.Clear();
+  RequestBatch batch;
+  const auto max_states = static_cast<std::uint32_t>(std::min<std::int64_t>(
+      context_->limits().max_states_per_request, std::numeric_limits<std::uint32_t>::max()));
+  if (Status s = RequestBatch::from_request(request_, model_->model.nv, next.precision, max_states, batch, &response_);
+      !s) {
+    failure = Status(failure.code(), failure.message() + "; no failover: " + s.message());
+    return false;
+  }
+  batch_ = std::move(batch);
+  route_ = next;
+  predicted_us_ = predicted;
+  return true;
 }
 
 namespace {
@@ -214,6 +278,7 @@ void ComputeCall::finish() {
   batch_.to_response(response_, type);
   response_.set_backend(backend_enum(route_.backend->name));
   response_.set_backend_mode(route_.backend->description.mode);
+  for (const std::string& f : failovers_) response_.add_failovers(f);
   if (in_fallback_) {
     // the recomputed states' outputs over the flagged ones, in the wire encoding
     v1::ComputeResponse fallback;

@@ -88,11 +88,15 @@ class ComputeCall : public PoolJob {
   /// without an id on a stream, "stream message 3: ...". `stream_index` < 0 for a unary call.
   /// A message that does not parse is invalid_argument "malformed ComputeRequest (12 bytes)".
   /// Nothing is kept on error: the call is then not to be submitted.
-  Status prepare(const grpc::ByteBuffer& message, const ComputeContext& context, std::int64_t stream_index);
+  /// `deadline` (the call's gRPC deadline; max = none): a request whose predicted wait and compute
+  /// time (Scheduler::route) would not fit before it is refused deadline_exceeded, naming both.
+  Status prepare(const grpc::ByteBuffer& message, const ComputeContext& context, std::int64_t stream_index,
+                 Clock::time_point deadline = Clock::time_point::max());
 
-  /// Hands a prepared call to its backend's pool: run() then happens once (twice, the second time
-  /// on the fallback backend's pool, when fixed-point states fell back), maybe before submit()
-  /// returns; complete() once at the end.
+  /// Hands a prepared call to its backend's pool: run() then happens once, maybe before submit()
+  /// returns, and again on another pool when fixed-point states fall back or when an
+  /// automatically routed request's backend fails as a whole (UNAVAILABLE or INTERNAL: failover
+  /// to the next best backend); complete() once at the end.
   void submit() { route_.pool->submit(*this, batch_.num_states(), predicted_us_); }
 
   /// The outcome, valid once complete() is called: ok (and the response serialized into
@@ -110,6 +114,10 @@ class ComputeCall : public PoolJob {
   void run(PluginInstance& instance) noexcept final;
   // the body of run() that may throw; false when the call goes on to its fallback run
   bool run_stage(PluginInstance& instance);
+  // After the primary run failed with `failure`: when it was routed automatically and the backend
+  // failed as a whole, routes it to the next best backend and readies batch_ for it (true); when
+  // no backend is left, says so in `failure` (false).
+  bool prepare_failover(Status& failure);
   // After the primary run failed with `failure`: when the request is fixed-point, a fallback
   // backend is configured and every failed state left the range, readies fallback_batch_ with
   // those states and returns true; otherwise false (the failure stands) or an error of its own.
@@ -127,6 +135,10 @@ class ComputeCall : public PoolJob {
   RequestBatch batch_;
   Route route_;
   double predicted_us_ = 0;  // the scheduler's prediction of the primary run's compute time
+  Clock::time_point deadline_ = Clock::time_point::max();
+  std::string hint_;                    // the request's backend hint: "" = routed by the scheduler
+  std::vector<std::string> failed_;     // backends that failed it as a whole (failover), in order
+  std::vector<std::string> failovers_;  // "cuda: device lost" for each, for the response
   Status status_;
   Clock::duration compute_time_{};  // in the backends, both runs
   Clock::time_point started_;       // of the primary run

@@ -182,14 +182,20 @@ DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool&
   }
 }
 
-grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* /*context*/,
+grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* context,
                                                    const grpc::ByteBuffer* request, grpc::ByteBuffer* response) {
   const auto accepted = ComputeCall::Clock::now();
+  // the client's deadline on our clock; none (the far future) stays none
+  ComputeCall::Clock::time_point deadline = ComputeCall::Clock::time_point::max();
+  const auto client_deadline = context->deadline();
+  if (client_deadline < std::chrono::system_clock::now() + std::chrono::hours(24 * 365))
+    deadline = accepted + std::chrono::duration_cast<ComputeCall::Clock::duration>(client_deadline -
+                                                                                   std::chrono::system_clock::now());
   // gRPC deletes nothing of ours: the call deletes itself in OnDone, which gRPC calls only after
   // this handler has returned it
   auto* call = new UnaryCall(accepted, response, context_);
   if (!call->admit()) return call;
-  if (Status s = call->prepare(*request, context_, -1); !s) {
+  if (Status s = call->prepare(*request, context_, -1, deadline); !s) {
     call->refuse(s);
     return call;
   }

@@ -13,6 +13,7 @@ grpc::StatusCode to_grpc_code(StatusCode code) noexcept {
     case StatusCode::kUnimplemented: return grpc::StatusCode::UNIMPLEMENTED;
     case StatusCode::kUnavailable: return grpc::StatusCode::UNAVAILABLE;
     case StatusCode::kInternal: return grpc::StatusCode::INTERNAL;
+    case StatusCode::kDeadlineExceeded: return grpc::StatusCode::DEADLINE_EXCEEDED;
   }
   // a code added to core without a mapping here is a bug of ours, not of the client's request
   return grpc::StatusCode::INTERNAL;

@@ -108,6 +108,9 @@ std::vector<Scheduler::Candidate> Scheduler::candidates(const ServedModel& model
     if (pool == nullptr) continue;
     const std::uint32_t precision = precision_on(backend, query.precision);
     if (precision == 0) continue;
+    if (query.exclude != nullptr &&
+        std::find(query.exclude->begin(), query.exclude->end(), backend.name) != query.exclude->end())
+      continue;
     const Plugin* plugin = backends_.plugin(backend.name);
     if (plugin == nullptr ||
         !plugin->can_run(model.desc.desc(), static_cast<rbdgrad_precision>(precision), query.outputs, query.n))
@@ -128,12 +131,16 @@ std::string Scheduler::choose_by_threshold(const ServedModel& model, const std::
   return "";
 }
 
-Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us) const {
+Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us,
+                        double* predicted_wait_us) const {
   predicted_us = 0;
+  if (predicted_wait_us != nullptr) *predicted_wait_us = 0;
   std::string chosen(query.backend);
   std::shared_lock lock(mutex_);
   if (chosen.empty()) {
     const std::vector<Candidate> c = candidates(model, query);
+    if (c.empty() && query.exclude != nullptr && !query.exclude->empty())
+      return unavailable("no other backend can take the request");
     if (config_.policy == "threshold") chosen = choose_by_threshold(model, c, query.n);
     if (chosen.empty()) {
       // cost: the earliest predicted completion among the backends with a model
@@ -147,11 +154,14 @@ Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route
         }
       }
     }
-    // no model at all: BackendPool's own rule (the cpu, else the first that serves the model)
+    // no model at all: BackendPool's own rule (the cpu, else the first that serves the model),
+    // unless that is a backend that failed already
+    if (chosen.empty() && query.exclude != nullptr && !query.exclude->empty()) chosen = c.front().state->name;
   }
   if (Status s = backends_.route(model, chosen, query.precision, out); !s) return s;
   if (const CalibrationEntry* e = table_.find(out.backend->name, model.name, out.precision))
     predicted_us = e->latency.predict_us(query.n);
+  if (predicted_wait_us != nullptr) *predicted_wait_us = out.pool->predicted_wait_us();
   return Status::ok();
 }
 

@@ -31,6 +31,8 @@ struct RouteQuery {
   std::uint32_t precision = 0;  // one rbdgrad_precision flag, 0 = each backend's best
   std::uint32_t outputs = 0;    // rbdgrad_output flags
   std::uint64_t n = 0;          // states
+  // backends that failed this request already (failover): never chosen again
+  const std::vector<std::string>* exclude = nullptr;
 };
 
 /// One backend's predicted completion for a request, for GetServerInfo and the tests.
@@ -55,8 +57,11 @@ class Scheduler {
   void calibrate(bool remeasure, const std::function<void(const std::string&)>& log);
 
   /// Chooses the backend (by the hint or the policy) and precision of a request, and the
-  /// prediction of its compute time (0 without a model). Errors: BackendPool::route's.
-  Status route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us) const;
+  /// prediction of its compute time (0 without a model) and of its wait for an instance.
+  /// Errors: BackendPool::route's; unavailable when every backend that could take the request is
+  /// in query.exclude.
+  Status route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us,
+               double* predicted_wait_us = nullptr) const;
 
   /// Every backend's prediction for a request on `model` with automatic backend (the policy's
   /// candidates), in load order.

@@ -115,6 +115,10 @@ Precision ComputeResult::fallback_precision() const noexcept {
   return valid() && impl_->response.fallback_states_size() > 0 ? detail::from_proto(impl_->response.fallback_precision())
                                                                 : Precision::kAuto;
 }
+std::vector<std::string> ComputeResult::failovers() const {
+  if (!valid()) return {};
+  return {impl_->response.failovers().begin(), impl_->response.failovers().end()};
+}
 Precision ComputeResult::precision() const noexcept { return valid() ? impl_->precision : Precision::kAuto; }
 ScalarType ComputeResult::output_type() const noexcept { return valid() ? impl_->type : ScalarType::kF64; }
 std::uint32_t ComputeResult::outputs() const noexcept { return valid() ? impl_->outputs : 0; }

@@ -12,6 +12,7 @@ const char* status_code_name(StatusCode code) noexcept {
     case StatusCode::kUnimplemented: return "unimplemented";
     case StatusCode::kUnavailable: return "unavailable";
     case StatusCode::kInternal: return "internal";
+    case StatusCode::kDeadlineExceeded: return "deadline_exceeded";
   }
   return "unknown";
 }

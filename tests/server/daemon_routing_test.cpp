@@ -87,5 +87,73 @@ TEST(DaemonRouting, CostPolicyOverThreeBackends) {
   EXPECT_EQ(routing.crossovers(2).backend_name(), "cuda");
 }
 
+// A backend that fails a request as a whole hands it to the next best one; a pinned request
+// fails with its backend.
+TEST(DaemonRouting, FailoverToTheNextBestBackend) {
+  DaemonOptions options = routing_options();
+  options.config.plugins[0].options["fail_on_marker"] = "1";  // the fpga
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  const auto channel = channel_to(daemon->addresses()[0]);
+  auto stub = v1::Dynamics::NewStub(channel);
+
+  v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, 1, 3, "lost", kCudaOutputs);
+  set_value(req.mutable_q(), 0, -999.0);
+  req.set_precision(v1::PRECISION_AUTO);
+  {
+    grpc::ClientContext ctx;
+    v1::ComputeResponse resp;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(resp.backend(), v1::BACKEND_CPU) << "the next best after the fpga, for one state";
+    EXPECT_EQ(resp.precision(), v1::PRECISION_F64) << "the cpu's best precision";
+    ASSERT_EQ(resp.failovers_size(), 1);
+    EXPECT_EQ(resp.failovers(0), "fpga: device lost");
+    EXPECT_EQ(resp.request_id(), "lost");
+  }
+  {
+    req.set_backend(v1::BACKEND_FPGA);  // pinned: no failover
+    grpc::ClientContext ctx;
+    v1::ComputeResponse resp;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAVAILABLE);
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("fpga: device lost"));
+  }
+  // and the daemon serves on
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
+}
+
+// A request whose predicted wait and compute time exceed its deadline fails at once.
+TEST(DaemonRouting, RequestsThatCannotMeetTheirDeadlineFailFast) {
+  DaemonOptions options = routing_options();
+  options.config.scheduler.calibrate = "off";  // the fpga's own model is enough here
+  options.config.plugins[0].options["fixed_us"] = "200000";  // 200 ms per request
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, 1, 4, "hurry", kCudaOutputs);
+  req.set_precision(v1::PRECISION_FIXED);
+  req.set_backend(v1::BACKEND_FPGA);
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(100));
+    v1::ComputeResponse resp;
+    const auto t0 = std::chrono::steady_clock::now();
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("request 'hurry': cannot finish before its deadline"));
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("backend fpga predicts 200010 us"));
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(100)) << "not refused at once";
+  }
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+    v1::ComputeResponse resp;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(resp.backend(), v1::BACKEND_FPGA);
+  }
+}
+
 }  // namespace
 }  // namespace rbdgrad::server

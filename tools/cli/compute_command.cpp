@@ -287,6 +287,8 @@ int run_compute_command(int argc, const char* const* argv, int first) {
       report << fallbacks << (fallbacks == 1 ? " state" : " states") << " left the fixed-point range and "
              << (fallbacks == 1 ? "was" : "were") << " computed again on " << backend_name(fell_back->fallback_backend())
              << " in " << precision_name(fell_back->fallback_precision()) << "\n";
+    for (const ComputeResult& each : computed.results)
+      for (const std::string& f : each.failovers()) report << "failover: " << f << "\n";
     report << std::fixed << std::setprecision(1);
     report << "server timings" << (requests_ok > 1 ? " (mean per request)" : "") << ": queue "
            << per_request(static_cast<double>(computed.sum.queue_us)) << " us, compute "

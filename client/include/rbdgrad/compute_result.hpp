@@ -7,6 +7,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -59,6 +60,10 @@ class RBDGRAD_CLIENT_EXPORT ComputeResult {
   std::span<const std::uint32_t> fallback_states() const noexcept;
   Backend fallback_backend() const noexcept;      // kAuto when no state fell back
   Precision fallback_precision() const noexcept;  // kAuto when no state fell back
+  // Backends that failed the request as a whole before backend() computed it, with their errors
+  // ("cuda: device lost"), in order; empty when none did. Only requests without a backend hint
+  // move on to another backend.
+  std::vector<std::string> failovers() const;
 
   // Views. The f64 forms need output_type() == kF64, the _f32 forms kF32. They throw
   // std::invalid_argument when the output is absent (not requested) or of the other type, and

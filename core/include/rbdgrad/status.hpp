@@ -16,6 +16,7 @@ enum class StatusCode {
   kUnimplemented,     // a feature that is not supported (yet)
   kUnavailable,       // a backend or device that is missing, failed to load or is not ready
   kInternal,          // a bug
+  kDeadlineExceeded,  // a request that cannot finish (or did not start) before its deadline
 };
 
 const char* status_code_name(StatusCode code) noexcept;
@@ -44,5 +45,6 @@ inline Status out_of_range(std::string m) { return {StatusCode::kOutOfRange, std
 inline Status not_found(std::string m) { return {StatusCode::kNotFound, std::move(m)}; }
 inline Status unimplemented(std::string m) { return {StatusCode::kUnimplemented, std::move(m)}; }
 inline Status unavailable(std::string m) { return {StatusCode::kUnavailable, std::move(m)}; }
+inline Status deadline_exceeded(std::string m) { return {StatusCode::kDeadlineExceeded, std::move(m)}; }
 
 }  // namespace rbdgrad

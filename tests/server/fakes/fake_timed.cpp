@@ -4,6 +4,8 @@
 // compute sleeps fixed_us + per_state_us * n microseconds (instance options, default 0) and
 // writes output element e of state k as k + e / 1000 (exactly predictable; raw k * 65536 + e in
 // Q16.16). estimate_latency (fpga only) answers fixed_us + per_state_us * n without sleeping.
+// With the option fail_on_marker=1, a batch whose first q is -999 fails as a whole,
+// RBDGRAD_ERROR_UNAVAILABLE "device lost" (a lost device, for the failover tests).
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -26,6 +28,7 @@ struct rbdgrad_instance {
   uint32_t nv;
   double fixed_us = 0;
   double per_state_us = 0;
+  bool fail_on_marker = false;
 };
 
 namespace {
@@ -63,6 +66,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* model, const rbdgrad_op
       made->fixed_us = std::strtod(options->values[i], nullptr);
     } else if (key == "per_state_us") {
       made->per_state_us = std::strtod(options->values[i], nullptr);
+    } else if (key == "fail_on_marker") {
+      made->fail_on_marker = std::string(options->values[i]) == "1";
     } else if (key != "threads") {  // the daemon gives the backend named cpu its thread count
       delete made;
       return make_error(RBDGRAD_ERROR_INVALID_ARGUMENT, "unknown option '" + key + "'");
@@ -84,7 +89,14 @@ void fill(const rbdgrad_batch* b, uint32_t nv) {
   }
 }
 
+bool has_marker(const rbdgrad_batch* b) {
+  if (b->precision == RBDGRAD_PRECISION_F64) return static_cast<const double*>(b->q)[0] == -999.0;
+  if (b->precision == RBDGRAD_PRECISION_F32) return static_cast<const float*>(b->q)[0] == -999.0f;
+  return static_cast<const int32_t*>(b->q)[0] == -999 * 65536;
+}
+
 rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
+  if (instance->fail_on_marker && has_marker(batch)) return make_error(RBDGRAD_ERROR_UNAVAILABLE, "device lost");
   const double us = instance->fixed_us + instance->per_state_us * static_cast<double>(batch->n);
   if (us > 0) std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int64_t>(us)));
   if (batch->precision == RBDGRAD_PRECISION_F64) {
