@@ -11,6 +11,7 @@ packages=(
   libspdlog-dev                  # daemon logs (server)
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc  # service API (proto/)
   libyaml-cpp-dev                # daemon configuration (coming with the service)
+  prometheus-cpp-dev             # the daemon's /metrics endpoint (Prometheus text format over HTTP)
   libgtest-dev libgmock-dev      # unit tests
   libbenchmark-dev               # microbenchmarks (bench)
   libxrt-dev                     # FPGA backend: XRT host API (plugins/fpga)

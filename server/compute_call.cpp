@@ -39,6 +39,7 @@ ComputeContext::Admission ComputeContext::admit() noexcept {
 Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContext& context,
                             std::int64_t stream_index, Clock::time_point deadline) {
   deadline_ = deadline;
+  context_ = &context;
   const std::string stream_prefix = stream_index >= 0 ? "stream message " + std::to_string(stream_index) + ": " : "";
 
   // parse: a message that is no ComputeRequest is the client's error, not an INTERNAL one
@@ -120,7 +121,39 @@ void ComputeCall::run(PluginInstance& instance) noexcept {
   } catch (...) {
     status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
   }
+  record();
   complete();
+}
+
+void ComputeCall::record() const {
+  if (context_ == nullptr || context_->metrics() == nullptr) return;
+  RequestRecord r;
+  if (route_.backend != nullptr) {
+    r.backend = route_.backend->name;
+    r.mode = route_.backend->description.mode;
+    r.precision = precision_label(route_.precision);
+  }
+  if (model_ != nullptr) r.model = model_->name;
+  r.code = status_.code();
+  r.states = request_.num_states();
+  const Clock::time_point now = Clock::now();
+  if (started_ != Clock::time_point{}) r.queue_seconds = std::chrono::duration<double>(started_ - accepted_).count();
+  if (compute_time_ != Clock::duration{}) r.compute_seconds = std::chrono::duration<double>(compute_time_).count();
+  r.total_seconds = std::chrono::duration<double>(now - accepted_).count();
+  r.failed_backends = failed_;
+  if (in_fallback_ && status_) r.fallback_states = fallback_states_.size();
+  context_->metrics()->record(r);
+}
+
+void ComputeCall::record_refusal(const Status& refusal) const {
+  if (context_ == nullptr || context_->metrics() == nullptr) return;
+  RequestRecord r;
+  const ServedModel* model = context_->models().find(request_.model());
+  if (model != nullptr) r.model = model->name;
+  r.code = refusal.code();
+  r.states = request_.num_states();
+  r.total_seconds = std::chrono::duration<double>(Clock::now() - accepted_).count();
+  context_->metrics()->record(r);
 }
 
 bool ComputeCall::run_stage(PluginInstance& instance) {

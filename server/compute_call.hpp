@@ -18,6 +18,7 @@
 #include "backend_pool.hpp"
 #include "config.hpp"
 #include "instance_pool.hpp"
+#include "metrics.hpp"
 #include "model_registry.hpp"
 #include "rbdgrad/status.hpp"
 #include "rbdgrad/v1/dynamics.pb.h"
@@ -32,17 +33,20 @@ class ComputeContext {
  public:
   /// \param fixed_point_fallback the backend that recomputes fixed-point states that left the
   ///        format's range (ServerConfig::fixed_point_fallback); "" = none.
+  /// `metrics` (may be null) records every request's outcome.
   ComputeContext(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
-                 const LimitsConfig& limits, std::string fixed_point_fallback = "")
+                 const LimitsConfig& limits, std::string fixed_point_fallback = "", Metrics* metrics = nullptr)
       : models_(models),
         backends_(backends),
         scheduler_(scheduler),
         limits_(limits),
-        fixed_point_fallback_(std::move(fixed_point_fallback)) {}
+        fixed_point_fallback_(std::move(fixed_point_fallback)),
+        metrics_(metrics) {}
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return backends_; }
   const Scheduler& scheduler() const noexcept { return scheduler_; }
+  Metrics* metrics() const noexcept { return metrics_; }
   const LimitsConfig& limits() const noexcept { return limits_; }
   const std::string& fixed_point_fallback() const noexcept { return fixed_point_fallback_; }
 
@@ -64,6 +68,7 @@ class ComputeContext {
   const Scheduler& scheduler_;
   const LimitsConfig limits_;
   const std::string fixed_point_fallback_;
+  Metrics* const metrics_;
   std::atomic<std::int64_t> in_flight_{0};
   std::atomic<bool> stopping_{false};
 };
@@ -99,6 +104,9 @@ class ComputeCall : public PoolJob {
   /// to the next best backend); complete() once at the end.
   void submit() { route_.pool->submit(*this, batch_.num_states(), predicted_us_); }
 
+  /// Counts a request that prepare() refused (the handler answers it) in the metrics.
+  void record_refusal(const Status& refusal) const;
+
   /// The outcome, valid once complete() is called: ok (and the response serialized into
   /// response_bytes) or the error, with the backend's code and a message naming the request.
   const Status& status() const noexcept { return status_; }
@@ -124,6 +132,8 @@ class ComputeCall : public PoolJob {
   Status prepare_fallback(const Status& failure, bool& prepared);
   // The response from batch_ (and fallback_batch_), with timings, serialized into response_bytes_.
   void finish();
+  // the outcome (status_) into the metrics, if any
+  void record() const;
 
   const Clock::time_point accepted_;
   grpc::ByteBuffer* const response_bytes_;

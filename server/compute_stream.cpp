@@ -183,6 +183,7 @@ void ComputeStreamReactor::OnReadDone(bool ok) {
                                  "stream message " + std::to_string(index) + ": " + kShuttingDownMessage);
   } else if (Status s = call->prepare(read_buffer_, context_, index); !s) {
     spdlog::debug("stream request refused: {}", s.to_string());
+    call->record_refusal(s);
     call->refused = to_grpc_status(s);
   }
   read_buffer_.Clear();

@@ -262,7 +262,7 @@ class Parser {
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
                               {"listen", "models", "plugins", "workers", "inline_max_states",
-                               "fixed_point_fallback", "limits", "scheduler", "log_level"});
+                               "fixed_point_fallback", "limits", "scheduler", "metrics", "log_level"});
         !s) {
       return s;
     }
@@ -291,6 +291,14 @@ class Parser {
     }
     if (root["scheduler"]) {
       if (Status s = parse_scheduler(root["scheduler"], out.scheduler); !s) return s;
+    }
+    if (root["metrics"]) {
+      const YAML::Node m = root["metrics"];
+      if (Status s = require_map("metrics", m); !s) return s;
+      if (Status s = check_keys("metrics", m, {"listen"}); !s) return s;
+      if (m["listen"]) {
+        if (Status s = get_string("metrics.listen", m["listen"], out.metrics_listen); !s) return s;
+      }
     }
     if (root["log_level"]) {
       std::string lvl;
@@ -447,6 +455,7 @@ std::string describe(const ServerConfig& cfg) {
      << (cfg.scheduler.calibration_file.empty() ? "none" : cfg.scheduler.calibration_file) << ", sizes";
   for (int64_t n : cfg.scheduler.calibration_sizes) os << " " << n;
   os << "\n";
+  os << "metrics: " << (cfg.metrics_listen.empty() ? "not served" : "http://" + cfg.metrics_listen + "/metrics") << "\n";
   os << "log_level: " << log_level_name(cfg.log_level) << "\n";
   return os.str();
 }

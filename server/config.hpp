@@ -127,6 +127,9 @@ struct ServerConfig {
   LimitsConfig limits;
   // Routing and calibration (see SchedulerConfig).
   SchedulerConfig scheduler;
+  // Where the Prometheus metrics are served over HTTP (/metrics), "host:port". Default "" = not
+  // served (they are still counted).
+  std::string metrics_listen;
   // Least severe log level written. Default info.
   LogLevel log_level = LogLevel::kInfo;
 

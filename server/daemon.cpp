@@ -100,8 +100,26 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
       text += (text.empty() ? "" : ", ") + backend + " from N = " + std::to_string(n);
     if (!text.empty()) spdlog::info("routing of model '{}' ({} policy): fastest {}", m->name, cfg.scheduler.policy, text);
   }
+  Daemon* self = d.get();
+  auto queues = [self] {
+    std::vector<QueueSample> out;
+    for (const BackendState& b : self->backends_->backends()) {
+      for (const auto& m : self->models_.models()) {
+        const InstancePool* pool = self->backends_->pool(b.name, *m);
+        if (pool == nullptr) continue;
+        const PoolLoad load = pool->load();
+        out.push_back({b.name, m->name, load.queued, load.running, load.pending_us * 1e-6});
+      }
+    }
+    return out;
+  };
+  auto in_flight = [self]() -> std::int64_t { return self->service_ ? self->service_->in_flight() : 0; };
+  if (Status s = Metrics::create(cfg.metrics_listen, queues, in_flight, d->metrics_); !s) return s;
+  if (!cfg.metrics_listen.empty())
+    spdlog::info("metrics: http://{}:{}/metrics", cfg.metrics_listen.substr(0, cfg.metrics_listen.rfind(':')),
+                 d->metrics_->port());
   d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, cfg.limits,
-                                                  RBDGRAD_VERSION, cfg.fixed_point_fallback);
+                                                  RBDGRAD_VERSION, cfg.fixed_point_fallback, d->metrics_.get());
   out = std::move(d);
   return Status::ok();
 }

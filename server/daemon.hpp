@@ -17,6 +17,7 @@
 #include "config.hpp"
 #include "dynamics_service.hpp"
 #include "listen_address.hpp"
+#include "metrics.hpp"
 #include "scheduler.hpp"
 #include "model_registry.hpp"
 #include "scheduler.hpp"
@@ -73,6 +74,7 @@ class Daemon {
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return *backends_; }
   const Scheduler& scheduler() const noexcept { return *scheduler_; }
+  const Metrics& metrics() const noexcept { return *metrics_; }
   const DynamicsService& service() const noexcept { return *service_; }
 
  private:
@@ -82,6 +84,7 @@ class Daemon {
   ModelRegistry models_;
   std::unique_ptr<BackendPool> backends_;
   std::unique_ptr<Scheduler> scheduler_;
+  std::unique_ptr<Metrics> metrics_;  // before the service, which records into it
   std::unique_ptr<DynamicsService> service_;
   std::vector<ListenAddress> addresses_;
   int tcp_port_ = 0;

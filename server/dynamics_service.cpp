@@ -171,8 +171,9 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
 }
 
 DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
-                                 const LimitsConfig& limits, std::string version, std::string fixed_point_fallback)
-    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback)),
+                                 const LimitsConfig& limits, std::string version, std::string fixed_point_fallback,
+                                 Metrics* metrics)
+    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
     v1::ModelSummary* s = list_models_.add_models();
@@ -196,6 +197,7 @@ grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* 
   auto* call = new UnaryCall(accepted, response, context_);
   if (!call->admit()) return call;
   if (Status s = call->prepare(*request, context_, -1, deadline); !s) {
+    call->record_refusal(s);
     call->refuse(s);
     return call;
   }

@@ -27,10 +27,12 @@ using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
-  /// `models`, `backends` and `scheduler` must outlive the service; `version` is GetServerInfo's;
+  /// `models`, `backends`, `scheduler` and `metrics` (may be null) must outlive the service;
+  /// `version` is GetServerInfo's;
   /// `fixed_point_fallback` is ServerConfig's ("" = none).
   DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
-                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "");
+                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "",
+                  Metrics* metrics = nullptr);
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.
