@@ -170,10 +170,11 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
   }
 }
 
-DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
+DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback,
                                  Metrics* metrics)
     : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics),
+      scheduler_(scheduler),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
     v1::ModelSummary* s = list_models_.add_models();
@@ -240,6 +241,26 @@ grpc::ServerUnaryReactor* DynamicsService::GetServerInfo(grpc::CallbackServerCon
   *response = server_info_;
   describe_scheduling(context_.scheduler(), context_.backends(), context_.models(), *response);
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::Calibrate(grpc::CallbackServerContext* context,
+                                                     const v1::CalibrateRequest* /*request*/,
+                                                     v1::CalibrateResponse* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  std::unique_lock lock(calibrating_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    reactor->Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "a calibration is running already"));
+    return reactor;
+  }
+  spdlog::info("calibration requested");
+  scheduler_.calibrate(true, [&](const std::string& line) {
+    spdlog::info("{}", line);
+    response->add_log(line);
+  });
+  *response->mutable_info() = server_info_;
+  describe_scheduling(context_.scheduler(), context_.backends(), context_.models(), *response->mutable_info());
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <mutex>
 #include <string>
 
 #include <grpcpp/support/byte_buffer.h>
@@ -22,15 +23,15 @@ namespace rbdgrad::server {
 
 using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute<
     rbdgrad::v1::Dynamics::WithRawCallbackMethod_ComputeStream<rbdgrad::v1::Dynamics::WithCallbackMethod_ListModels<
-        rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<
-            rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<rbdgrad::v1::Dynamics::Service>>>>>;
+        rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<
+            rbdgrad::v1::Dynamics::WithCallbackMethod_Calibrate<rbdgrad::v1::Dynamics::Service>>>>>>;
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
   /// `models`, `backends`, `scheduler` and `metrics` (may be null) must outlive the service;
   /// `version` is GetServerInfo's;
   /// `fixed_point_fallback` is ServerConfig's ("" = none).
-  DynamicsService(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
+  DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                   const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "",
                   Metrics* metrics = nullptr);
 
@@ -58,10 +59,16 @@ class DynamicsService final : public DynamicsServiceBase {
   grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
                                           const rbdgrad::v1::GetServerInfoRequest* request,
                                           rbdgrad::v1::GetServerInfoResponse* response) override;
+  // runs the calibration on the calling gRPC thread: an operator's call, seconds long
+  grpc::ServerUnaryReactor* Calibrate(grpc::CallbackServerContext* context,
+                                      const rbdgrad::v1::CalibrateRequest* request,
+                                      rbdgrad::v1::CalibrateResponse* response) override;
 
  private:
   ComputeContext context_;
   StreamRegistry streams_;
+  Scheduler& scheduler_;        // Calibrate replaces its latency models
+  std::mutex calibrating_;      // one Calibrate at a time
   // the answers that never change, built once
   rbdgrad::v1::ListModelsResponse list_models_;
   rbdgrad::v1::GetServerInfoResponse server_info_;

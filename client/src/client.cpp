@@ -175,6 +175,17 @@ RpcStatus Client::server_info(ServerInfo& out, std::optional<std::chrono::nanose
   return st;
 }
 
+RpcStatus Client::calibrate(std::vector<std::string>& log, ServerInfo& info,
+                           std::optional<std::chrono::nanoseconds> timeout) const {
+  v1::CalibrateResponse response;
+  RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::Calibrate, v1::CalibrateRequest(), response, timeout);
+  if (st) {
+    log.assign(response.log().begin(), response.log().end());
+    info = detail::decode(response.info());
+  }
+  return st;
+}
+
 std::vector<ServedModel> Client::list_models(std::optional<std::chrono::nanoseconds> timeout) const {
   std::vector<ServedModel> out;
   if (RpcStatus st = list_models(out, timeout); !st) throw ClientError(std::move(st));

@@ -5,7 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <map>
+#include <thread>
 
 #include "daemon_test_support.hpp"
 
@@ -85,6 +87,26 @@ TEST(DaemonRouting, CostPolicyOverThreeBackends) {
   EXPECT_EQ(routing.crossovers(0).from_n(), 1u);
   EXPECT_EQ(routing.crossovers(1).backend_name(), "cpu");
   EXPECT_EQ(routing.crossovers(2).backend_name(), "cuda");
+}
+
+// Calibrate measures again on demand and answers with the new models and routing.
+TEST(DaemonRouting, CalibrateOnDemand) {
+  std::unique_ptr<Daemon> daemon = start_daemon(routing_options());
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  const std::string before =
+      daemon->scheduler().table().find("cpu", "iiwa14", RBDGRAD_PRECISION_F64)->source;
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // the source's clock has seconds
+  grpc::ClientContext ctx;
+  v1::CalibrateResponse resp;
+  const grpc::Status s = stub->Calibrate(&ctx, v1::CalibrateRequest(), &resp);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(resp.log_size(), 5);  // fpga fixed (its own model), cpu and cuda in f64 and f32
+  EXPECT_THAT(resp.log(0), ::testing::HasSubstr("calibration: fpga iiwa14 fixed: "));
+  ASSERT_EQ(resp.info().routing_size(), 1);
+  EXPECT_EQ(resp.info().routing(0).crossovers_size(), 3);
+  EXPECT_NE(daemon->scheduler().table().find("cpu", "iiwa14", RBDGRAD_PRECISION_F64)->source, before)
+      << "measured again";
 }
 
 // A backend that fails a request as a whole hands it to the next best one; a pinned request

@@ -203,7 +203,7 @@ case_daemon_signal() {
   expect_in "$WORK/log" "shutting down"
 }
 
-# --- the daemon's commands (info, models, compute) ----------------------------------------------
+# --- the daemon's commands (info, calibrate, models, compute) -----------------------------------
 
 # start_daemon [RBDGRADD FLAGS...]: rbdgradd on an ephemeral loopback port; sets SERVER to its address
 start_daemon() {
@@ -252,6 +252,7 @@ case_server_commands_usage() {
   expect_exit 2 "$RBDGRAD" --server "$none" eval --in x --out y
   expect_in "$WORK/stderr" "unknown option '--server'"
   expect_exit 2 "$RBDGRAD" info --bogus
+  expect_exit 2 "$RBDGRAD" calibrate --bogus
   expect_exit 2 "$RBDGRAD" models --timeout -1
   expect_exit 0 "$RBDGRAD" compute --help
   expect_in "$WORK/stdout" "--precision auto|f64|f32|fixed"
@@ -274,7 +275,13 @@ case_daemon_info_models() {
   expect_exit 0 "$RBDGRAD" --server "$SERVER" info
   expect_in "$WORK/stdout" "server $SERVER: rbdgrad 0."
   expect_in "$WORK/stdout" "cpu: ready, precisions f64"
+  expect_in "$WORK/stdout" "latency iiwa14 f64: "
+  expect_in "$WORK/stdout" "routing (cost policy):"
   expect_in "$WORK/stdout" "states per request"
+  # measured again on demand: one line per model, then the same report
+  expect_exit 0 "$RBDGRAD" calibrate --server "$SERVER"
+  expect_in "$WORK/stdout" "calibration: cpu iiwa14 f64: "
+  expect_in "$WORK/stdout" "routing (cost policy):"
   expect_exit 0 "$RBDGRAD" models --server "$SERVER"
   expect_in "$WORK/stdout" "NAME"
   grep -qE '^iiwa14 +7 ' "$WORK/stdout" || fail "models: $(cat "$WORK/stdout")"

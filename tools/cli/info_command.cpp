@@ -19,23 +19,8 @@ std::string bytes_text(std::uint64_t bytes) {
 
 }  // namespace
 
-int run_info_command(int argc, const char* const* argv, int first) {
-  Args args;
-  std::string error = Args::parse(kOptions, argc, argv, first, args);
-  if (args.has("help") && error.empty()) {
-    std::cout << "usage: rbdgrad info [--server ADDR]\n\n" << kInfoSummary << ".\n\noptions:\n" << format_options(kOptions);
-    return 0;
-  }
-  std::unique_ptr<Client> client;
-  if (error.empty()) error = make_client(args, client);
-  if (!error.empty()) {
-    std::cerr << "rbdgrad info: " << error << "\nusage: rbdgrad info [--server ADDR] (see rbdgrad info --help)\n";
-    return 2;
-  }
-  ServerInfo info;
-  if (RpcStatus st = client->server_info(info); !st) return report_rpc_failure("info", *client, st);
-
-  std::cout << "server " << client->address() << ": rbdgrad " << info.version << "\nbackends:\n";
+void print_server_info(const std::string& address, const ServerInfo& info) {
+  std::cout << "server " << address << ": rbdgrad " << info.version << "\nbackends:\n";
   for (const BackendStatus& b : info.backends) {
     std::cout << "  " << b.name << ": ";
     if (!b.ready) {
@@ -80,6 +65,25 @@ int run_info_command(int argc, const char* const* argv, int first) {
   }
   std::cout << "limits: " << info.max_states_per_request << " states per request, messages up to "
             << bytes_text(info.max_message_bytes) << ", " << info.max_concurrent_requests << " requests in flight\n";
+}
+
+int run_info_command(int argc, const char* const* argv, int first) {
+  Args args;
+  std::string error = Args::parse(kOptions, argc, argv, first, args);
+  if (args.has("help") && error.empty()) {
+    std::cout << "usage: rbdgrad info [--server ADDR]\n\n" << kInfoSummary << ".\n\noptions:\n" << format_options(kOptions);
+    return 0;
+  }
+  std::unique_ptr<Client> client;
+  if (error.empty()) error = make_client(args, client);
+  if (!error.empty()) {
+    std::cerr << "rbdgrad info: " << error << "\nusage: rbdgrad info [--server ADDR] (see rbdgrad info --help)\n";
+    return 2;
+  }
+  ServerInfo info;
+  if (RpcStatus st = client->server_info(info); !st) return report_rpc_failure("info", *client, st);
+
+  print_server_info(client->address(), info);
   return 0;
 }
 

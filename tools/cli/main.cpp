@@ -7,6 +7,7 @@
 
 #include "compute_command.hpp"
 #include "eval_command.hpp"
+#include "calibrate_command.hpp"
 #include "info_command.hpp"
 #include "model_command.hpp"
 #include "models_command.hpp"
@@ -24,6 +25,7 @@ constexpr Command kCommands[] = {
     {"eval", rbdgrad::cli::kEvalSummary, rbdgrad::cli::run_eval_command},
     {"model", rbdgrad::cli::kModelSummary, rbdgrad::cli::run_model_command},
     {"info", rbdgrad::cli::kInfoSummary, rbdgrad::cli::run_info_command},
+    {"calibrate", rbdgrad::cli::kCalibrateSummary, rbdgrad::cli::run_calibrate_command},
     {"models", rbdgrad::cli::kModelsSummary, rbdgrad::cli::run_models_command},
     {"compute", rbdgrad::cli::kComputeSummary, rbdgrad::cli::run_compute_command},
 };
@@ -32,9 +34,9 @@ void print_usage(std::ostream& os) {
   os << "usage: rbdgrad [--server ADDR] <command> [options]\n"
      << "       rbdgrad <command> --help | rbdgrad --help | rbdgrad --version\n\n"
      << "Rigid-body dynamics and their derivatives (rbdgrad " << RBDGRAD_VERSION << ").\n"
-     << "info, models and compute talk to the daemon rbdgradd at --server (default 127.0.0.1:50051;\n"
+     << "info, calibrate, models and compute talk to the daemon rbdgradd at --server (default 127.0.0.1:50051;\n"
      << "unix:/tmp/rbdgradd.sock is faster on the same host); eval and model compute in-process.\n\ncommands:\n";
-  for (const Command& c : kCommands) os << "  " << c.name << std::string(9 - c.name.size(), ' ') << c.summary << "\n";
+  for (const Command& c : kCommands) os << "  " << c.name << std::string(11 - c.name.size(), ' ') << c.summary << "\n";
 }
 
 }  // namespace

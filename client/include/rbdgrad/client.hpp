@@ -147,6 +147,12 @@ class RBDGRAD_CLIENT_EXPORT Client {
                       std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
 
+  /// Has the server time its backends again (its scheduler's latency models; seconds, best on an
+  /// idle server): `log` gets one line per model measured, `info` the server's state afterwards.
+  /// UNAVAILABLE while another calibration runs.
+  RpcStatus calibrate(std::vector<std::string>& log, ServerInfo& info,
+                      std::optional<std::chrono::nanoseconds> timeout = {}) const;
+
   struct Impl;
 
  private:
