@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <string_view>
@@ -11,6 +12,8 @@
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
 
+#include "coalescer.hpp"
+#include "common/batch_view.hpp"
 #include "proto_enums.hpp"
 
 namespace rbdgrad::server {
@@ -125,6 +128,56 @@ void ComputeCall::run(PluginInstance& instance) noexcept {
   complete();
 }
 
+void ComputeCall::submit() {
+  Coalescer* coalescer = context_->coalescer();
+  if (coalescer != nullptr && coalescer->takes(*this)) {
+    coalescer->add(*this);
+    return;
+  }
+  batch_states_ = batch_.num_states();
+  route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+}
+
+void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch& group, std::uint64_t first,
+                                  Clock::time_point started, Clock::duration compute, std::size_t group_requests,
+                                  std::uint64_t group_states) noexcept {
+  try {
+    // the group call marks every state failed when it failed as a whole (GroupJob::run)
+    const rbdgrad_batch& own = batch_.batch();
+    bool all_ok = group.state_status != nullptr;
+    for (std::uint64_t k = 0; all_ok && k < own.n; ++k) all_ok = group.state_status[first + k] == RBDGRAD_OK;
+    if (!all_ok) {
+      // computed again alone: the usual path, with its own messages, failover and fallback
+      batch_states_ = own.n;
+      run(instance);
+      return;
+    }
+    started_ = started;
+    compute_time_ = compute;
+    batch_requests_ = group_requests;
+    batch_states_ = group_states;
+    const std::size_t scalar = own.precision == RBDGRAD_PRECISION_F64 ? 8 : 4;
+    const auto nv = static_cast<std::size_t>(batch_.nv());
+    for (int o = 0; o < 8; ++o) {
+      const std::uint32_t flag = 1u << o;
+      if ((own.outputs & flag) == 0) continue;
+      const std::size_t per_state = ((o == 0 || o == 4) ? nv : nv * nv) * scalar;  // qdd and tau are vectors
+      std::memcpy(plugin::output_pointer(own, flag),
+                  static_cast<const std::byte*>(plugin::output_pointer(group, flag)) + first * per_state,
+                  own.n * per_state);
+    }
+    if (own.state_status != nullptr)
+      std::memcpy(own.state_status, group.state_status + first, own.n * sizeof(std::int32_t));
+    finish();
+  } catch (const std::exception& e) {
+    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
+  } catch (...) {
+    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
+  }
+  record();
+  complete();
+}
+
 void ComputeCall::record() const {
   if (context_ == nullptr || context_->metrics() == nullptr) return;
   RequestRecord r;
@@ -141,6 +194,7 @@ void ComputeCall::record() const {
   if (compute_time_ != Clock::duration{}) r.compute_seconds = std::chrono::duration<double>(compute_time_).count();
   r.total_seconds = std::chrono::duration<double>(now - accepted_).count();
   r.failed_backends = failed_;
+  r.batch_states = batch_states_;
   if (in_fallback_ && status_) r.fallback_states = fallback_states_.size();
   context_->metrics()->record(r);
 }
@@ -312,6 +366,7 @@ void ComputeCall::finish() {
   response_.set_backend(backend_enum(route_.backend->name));
   response_.set_backend_mode(route_.backend->description.mode);
   for (const std::string& f : failovers_) response_.add_failovers(f);
+  response_.set_batch_requests(static_cast<std::uint32_t>(batch_requests_));
   if (in_fallback_) {
     // the recomputed states' outputs over the flagged ones, in the wire encoding
     v1::ComputeResponse fallback;

@@ -27,26 +27,32 @@
 
 namespace rbdgrad::server {
 
+class Coalescer;
+
 // What every compute call needs from the service: read-only after start-up, except the
 // admission counter.
 class ComputeContext {
  public:
   /// \param fixed_point_fallback the backend that recomputes fixed-point states that left the
   ///        format's range (ServerConfig::fixed_point_fallback); "" = none.
-  /// `metrics` (may be null) records every request's outcome.
+  /// `metrics` (may be null) records every request's outcome; `coalescer` (may be null) batches
+  /// small concurrent requests.
   ComputeContext(const ModelRegistry& models, const BackendPool& backends, const Scheduler& scheduler,
-                 const LimitsConfig& limits, std::string fixed_point_fallback = "", Metrics* metrics = nullptr)
+                 const LimitsConfig& limits, std::string fixed_point_fallback = "", Metrics* metrics = nullptr,
+                 Coalescer* coalescer = nullptr)
       : models_(models),
         backends_(backends),
         scheduler_(scheduler),
         limits_(limits),
         fixed_point_fallback_(std::move(fixed_point_fallback)),
-        metrics_(metrics) {}
+        metrics_(metrics),
+        coalescer_(coalescer) {}
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return backends_; }
   const Scheduler& scheduler() const noexcept { return scheduler_; }
   Metrics* metrics() const noexcept { return metrics_; }
+  Coalescer* coalescer() const noexcept { return coalescer_; }
   const LimitsConfig& limits() const noexcept { return limits_; }
   const std::string& fixed_point_fallback() const noexcept { return fixed_point_fallback_; }
 
@@ -69,6 +75,7 @@ class ComputeContext {
   const LimitsConfig limits_;
   const std::string fixed_point_fallback_;
   Metrics* const metrics_;
+  Coalescer* const coalescer_;
   std::atomic<std::int64_t> in_flight_{0};
   std::atomic<bool> stopping_{false};
 };
@@ -102,7 +109,23 @@ class ComputeCall : public PoolJob {
   /// returns, and again on another pool when fixed-point states fall back or when an
   /// automatically routed request's backend fails as a whole (UNAVAILABLE or INTERNAL: failover
   /// to the next best backend); complete() once at the end.
-  void submit() { route_.pool->submit(*this, batch_.num_states(), predicted_us_); }
+  /// With dynamic batching (ComputeContext::coalescer) a small request first waits for others to
+  /// share its backend call (finish_in_group).
+  void submit();
+
+  // For the Coalescer: the prepared batch, its pool and prediction.
+  const rbdgrad_batch& prepared_batch() const noexcept { return batch_.batch(); }
+  int nv() const noexcept { return batch_.nv(); }
+  InstancePool* pool() const noexcept { return route_.pool; }
+  double predicted_us() const noexcept { return predicted_us_; }
+  /// The group's backend call (`group`) held this call's states at
+  /// [first, first + n): takes its outputs and completes. When one of this call's states failed
+  /// (every state, when the group call failed as a whole), computes it again alone on `instance`
+  /// instead (the usual path: exact messages, failover, fallback). `group_states` > 0 for one
+  /// member only: the group's size, for the metrics.
+  void finish_in_group(PluginInstance& instance, const rbdgrad_batch& group, std::uint64_t first,
+                       Clock::time_point started, Clock::duration compute, std::size_t group_requests,
+                       std::uint64_t group_states) noexcept;
 
   /// Counts a request that prepare() refused (the handler answers it) in the metrics.
   void record_refusal(const Status& refusal) const;
@@ -149,6 +172,8 @@ class ComputeCall : public PoolJob {
   std::string hint_;                    // the request's backend hint: "" = routed by the scheduler
   std::vector<std::string> failed_;     // backends that failed it as a whole (failover), in order
   std::vector<std::string> failovers_;  // "cuda: device lost" for each, for the response
+  std::size_t batch_requests_ = 1;      // requests of its backend call (dynamic batching)
+  std::uint64_t batch_states_ = 0;      // that call's states, for the metrics (0: another member counts it)
   Status status_;
   Clock::duration compute_time_{};  // in the backends, both runs
   Clock::time_point started_;       // of the primary run

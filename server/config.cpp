@@ -218,7 +218,8 @@ class Parser {
   Status parse_scheduler(const YAML::Node& node, SchedulerConfig& out) const {
     if (Status s = require_map("scheduler", node); !s) return s;
     if (Status s = check_keys("scheduler", node,
-                              {"policy", "small_n", "large_n", "calibrate", "calibration_file", "calibration_sizes"});
+                              {"policy", "small_n", "large_n", "calibrate", "calibration_file", "calibration_sizes",
+                               "preferred_batch_states"});
         !s)
       return s;
     if (node["policy"]) {
@@ -229,6 +230,12 @@ class Parser {
     for (const auto& [key, dst] : {std::pair{"small_n", &out.small_n}, std::pair{"large_n", &out.large_n}}) {
       if (!node[key]) continue;
       if (Status s = get_int(std::string("scheduler.") + key, node[key], -1, kMaxInt32, *dst); !s) return s;
+    }
+    if (node["preferred_batch_states"]) {
+      if (Status s = get_int("scheduler.preferred_batch_states", node["preferred_batch_states"], 1, kMaxInt32,
+                             out.preferred_batch_states);
+          !s)
+        return s;
     }
     if (node["calibrate"]) {
       if (Status s = get_string("scheduler.calibrate", node["calibrate"], out.calibrate); !s) return s;

@@ -65,9 +65,8 @@ struct LimitsConfig {
   // Compute requests in flight at once (unary and streamed); more are rejected
   // RESOURCE_EXHAUSTED. Default 256. Range [1, 2^31-1].
   int64_t max_concurrent_requests = 256;
-  // How long the scheduler may hold a request to batch it, in microseconds.
-  // Default 0 (no batching delay). Range [0, 10^7]. Reserved: read but not used until the
-  // scheduler exists.
+  // Dynamic batching: how long a small request may wait for others to share its backend call,
+  // in microseconds (server/coalescer.hpp). Default 0 = no batching. Range [0, 10^7].
   int64_t max_queue_delay_us = 0;
 
   bool operator==(const LimitsConfig&) const = default;
@@ -92,6 +91,9 @@ struct SchedulerConfig {
   std::string calibration_file;
   // Batch sizes timed, ascending, each in [1, 2^31-1]. Default 1, 4, 16, 64, 256, 1024.
   std::vector<int64_t> calibration_sizes = {1, 4, 16, 64, 256, 1024};
+  // Dynamic batching (limits.max_queue_delay_us > 0): requests of fewer states wait for others,
+  // and a group of at least this many goes at once. Default 256. Range [1, 2^31-1].
+  int64_t preferred_batch_states = 256;
 
   bool operator==(const SchedulerConfig&) const = default;
 };

@@ -118,8 +118,15 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   if (!cfg.metrics_listen.empty())
     spdlog::info("metrics: http://{}:{}/metrics", cfg.metrics_listen.substr(0, cfg.metrics_listen.rfind(':')),
                  d->metrics_->port());
+  if (cfg.limits.max_queue_delay_us > 0) {
+    d->coalescer_ = std::make_unique<Coalescer>(std::chrono::microseconds(cfg.limits.max_queue_delay_us),
+                                                static_cast<std::uint64_t>(cfg.scheduler.preferred_batch_states));
+    spdlog::info("dynamic batching: requests under {} states wait up to {} us for others", cfg.scheduler.preferred_batch_states,
+                 cfg.limits.max_queue_delay_us);
+  }
   d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, cfg.limits,
-                                                  RBDGRAD_VERSION, cfg.fixed_point_fallback, d->metrics_.get());
+                                                  RBDGRAD_VERSION, cfg.fixed_point_fallback, d->metrics_.get(),
+                                                  d->coalescer_.get());
   out = std::move(d);
   return Status::ok();
 }

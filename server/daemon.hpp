@@ -14,6 +14,7 @@
 #include <grpcpp/server.h>
 
 #include "backend_pool.hpp"
+#include "coalescer.hpp"
 #include "config.hpp"
 #include "dynamics_service.hpp"
 #include "listen_address.hpp"
@@ -86,6 +87,9 @@ class Daemon {
   std::unique_ptr<Scheduler> scheduler_;
   std::unique_ptr<Metrics> metrics_;  // before the service, which records into it
   std::unique_ptr<DynamicsService> service_;
+  // after the service: destroyed first, it hands what it holds to the pools (the daemon has
+  // drained by then)
+  std::unique_ptr<Coalescer> coalescer_;
   std::vector<ListenAddress> addresses_;
   int tcp_port_ = 0;
   ino_t socket_inode_ = 0;  // our socket file, removed at stop

@@ -172,8 +172,8 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
 
 DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback,
-                                 Metrics* metrics)
-    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics),
+                                 Metrics* metrics, Coalescer* coalescer)
+    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics, coalescer),
       scheduler_(scheduler),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {

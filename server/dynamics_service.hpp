@@ -33,7 +33,7 @@ class DynamicsService final : public DynamicsServiceBase {
   /// `fixed_point_fallback` is ServerConfig's ("" = none).
   DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                   const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "",
-                  Metrics* metrics = nullptr);
+                  Metrics* metrics = nullptr, Coalescer* coalescer = nullptr);
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.

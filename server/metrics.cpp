@@ -104,7 +104,7 @@ Status Metrics::create(const std::string& listen, std::function<std::vector<Queu
                    .Register(r);
   m->batch_states_ = &prometheus::BuildHistogram()
                           .Name("rbdgrad_batch_states")
-                          .Help("States per backend call")
+                          .Help("States per backend call, after dynamic batching")
                           .Register(r);
   m->live_ = std::make_shared<LiveState>(std::move(queues), std::move(in_flight));
   if (!listen.empty()) {
@@ -133,10 +133,8 @@ void Metrics::record(const RequestRecord& r) {
                   {"code", status_code_name(r.code)}})
       .Increment();
   const prometheus::Labels by_backend{{"backend", backend}, {"mode", mode}};
-  if (r.code == StatusCode::kOk) {
-    states_->Add(by_backend).Increment(static_cast<double>(r.states));
-    batch_states_->Add(by_backend, size_buckets()).Observe(static_cast<double>(r.states));
-  }
+  if (r.code == StatusCode::kOk) states_->Add(by_backend).Increment(static_cast<double>(r.states));
+  if (r.batch_states > 0) batch_states_->Add(by_backend, size_buckets()).Observe(static_cast<double>(r.batch_states));
   for (const std::string& failed : r.failed_backends) failovers_->Add({{"from_backend", failed}}).Increment();
   if (r.fallback_states > 0) fallback_states_->Add(by_backend).Increment(static_cast<double>(r.fallback_states));
   if (r.queue_seconds >= 0) queue_->Add(by_backend, time_buckets()).Observe(r.queue_seconds);

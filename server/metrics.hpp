@@ -39,6 +39,8 @@ struct RequestRecord {
   double total_seconds = 0;          // accepted -> answered
   std::vector<std::string> failed_backends;  // failovers: the backends that failed it first
   std::uint64_t fallback_states = 0;         // fixed-point states computed again in floating point
+  std::uint64_t batch_states = 0;  // the states of its backend call, once per call (0: counted with
+                                   // another request of the same coalesced call, or never computed)
 };
 
 /// A queue's state at scrape time.

@@ -162,7 +162,8 @@ TEST(ServerConfigTest, SchedulerSection) {
   EXPECT_EQ(cfg.scheduler.calibrate, "start");
   EXPECT_EQ(cfg.scheduler.calibration_file, "");
   ASSERT_TRUE(parse_config("scheduler:\n  policy: threshold\n  small_n: 16\n  large_n: 512\n  calibrate: off\n"
-                           "  calibration_file: /var/cache/rbdgrad/cal.yaml\n  calibration_sizes: [1, 8, 64]\n",
+                           "  calibration_file: /var/cache/rbdgrad/cal.yaml\n  calibration_sizes: [1, 8, 64]\n"
+                           "  preferred_batch_states: 64\n",
                            "t", cfg));
   EXPECT_EQ(cfg.scheduler.policy, "threshold");
   EXPECT_EQ(cfg.scheduler.small_n, 16);
@@ -170,6 +171,7 @@ TEST(ServerConfigTest, SchedulerSection) {
   EXPECT_EQ(cfg.scheduler.calibrate, "off");
   EXPECT_EQ(cfg.scheduler.calibration_file, "/var/cache/rbdgrad/cal.yaml");
   EXPECT_EQ(cfg.scheduler.calibration_sizes, (std::vector<int64_t>{1, 8, 64}));
+  EXPECT_EQ(cfg.scheduler.preferred_batch_states, 64);
   EXPECT_NE(describe(cfg).find("scheduler: policy threshold (small_n 16, large_n 512"), std::string::npos);
   const std::pair<const char*, const char*> bad[] = {
       {"scheduler:\n  policy: fastest\n", "scheduler.policy"},
@@ -179,6 +181,7 @@ TEST(ServerConfigTest, SchedulerSection) {
       {"scheduler:\n  calibration_sizes: []\n", "non-empty list"},
       {"scheduler:\n  calibration_sizes: [0]\n", "scheduler.calibration_sizes[0]"},
       {"scheduler:\n  sizes: [1]\n", "unknown key 'scheduler.sizes'"},
+      {"scheduler:\n  preferred_batch_states: 0\n", "scheduler.preferred_batch_states"},
   };
   for (const auto& [text, want] : bad) {
     ServerConfig c;
