@@ -9,9 +9,6 @@
 namespace rbdgrad::server {
 namespace {
 
-constexpr std::uint32_t kPrecisionOrder[] = {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32,
-                                             RBDGRAD_PRECISION_FIXED_Q16_16};
-
 std::int64_t cpu_threads(std::int64_t workers) {
   if (workers > 0) return workers;
   const unsigned hw = std::thread::hardware_concurrency();  // 0 when unknown

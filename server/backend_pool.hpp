@@ -46,6 +46,10 @@ struct Route {
   rbdgrad_precision precision = RBDGRAD_PRECISION_F64;  // resolved: never "auto"
 };
 
+/// The precisions from the most accurate: a backend's best is the first it has.
+inline constexpr std::uint32_t kPrecisionOrder[] = {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32,
+                                                    RBDGRAD_PRECISION_FIXED_Q16_16};
+
 /// "f64", "f32", "fixed", or "unknown": the precision names of messages and logs.
 const char* precision_label(std::uint32_t precision) noexcept;
 /// The precisions of `flags` in the order f64, f32, fixed: "f64, f32".

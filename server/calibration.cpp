@@ -10,6 +10,8 @@
 #include <random>
 #include <thread>
 
+#include "common/batch_view.hpp"
+
 
 namespace rbdgrad::server {
 
@@ -47,11 +49,6 @@ std::string cpu_model_name() {
   return "unknown cpu";
 }
 
-std::size_t element_size(std::uint32_t precision) {
-  return precision == RBDGRAD_PRECISION_F64 ? sizeof(double) : precision == RBDGRAD_PRECISION_F32 ? sizeof(float)
-                                                                                                   : sizeof(std::int32_t);
-}
-
 // n random states of the gradient request, in `precision`: q within half the joints' limits (the
 // whole circle's half for unlimited ones), qd and tau in [-0.5, 0.5], moderate enough for Q16.16
 struct CalibrationBatch {
@@ -60,7 +57,7 @@ struct CalibrationBatch {
   rbdgrad_batch raw{};
 
   CalibrationBatch(const ServedModel& model, std::uint32_t precision, std::uint64_t n) {
-    const std::size_t nv = static_cast<std::size_t>(model.model.nv), size = element_size(precision);
+    const std::size_t nv = static_cast<std::size_t>(model.model.nv), size = plugin::scalar_bytes(precision);
     const std::size_t vec = n * nv;
     std::mt19937_64 rng(n * 7919 + nv);
     std::uniform_real_distribution<double> unit(-0.5, 0.5);

@@ -10,8 +10,6 @@ namespace rbdgrad::server {
 
 namespace {
 
-std::size_t scalar_bytes(std::uint32_t precision) { return precision == RBDGRAD_PRECISION_F64 ? 8 : 4; }
-
 // One backend call for a group: the members' inputs end to end, the outputs likewise; on its run
 // each member takes its slice and completes (or computes again alone, see Coalescer).
 class GroupJob : public PoolJob {
@@ -48,7 +46,7 @@ class GroupJob : public PoolJob {
   // the members' inputs end to end, and room for the outputs
   rbdgrad_batch gather() {
     const rbdgrad_batch& t = calls_.front()->prepared_batch();
-    const std::size_t nv = static_cast<std::size_t>(calls_.front()->nv()), s = scalar_bytes(t.precision);
+    const std::size_t nv = static_cast<std::size_t>(calls_.front()->nv()), s = plugin::scalar_bytes(t.precision);
     const std::size_t vec = nv * s;
     rbdgrad_batch b = t;
     b.n = states_;
@@ -72,8 +70,7 @@ class GroupJob : public PoolJob {
     for (int o = 0; o < 8; ++o) {
       *outputs[o] = nullptr;
       if ((b.outputs & (1u << o)) == 0) continue;
-      const bool vector = o == 0 || o == 4;  // qdd and tau
-      out_[o].resize(states_ * (vector ? vec : vec * nv));
+      out_[o].resize(states_ * ((b.outputs & (1u << o) & plugin::kMatrixOutputs) ? vec * nv : vec));
       *outputs[o] = out_[o].data();
     }
     status_.assign(states_, 0);

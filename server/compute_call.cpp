@@ -28,6 +28,18 @@ std::uint64_t micros(ComputeCall::Clock::duration d) {
 
 Status with_prefix(const std::string& prefix, const Status& s) { return {s.code(), prefix + s.message()}; }
 
+// The request's outputs as rbdgrad_output flags (Output k is flag 1 << (k - 1)); unknown values
+// are left out here and refused by RequestBatch.
+std::uint32_t output_flags(const v1::ComputeRequest& request) {
+  static_assert(RBDGRAD_OUTPUT_QDD == 1u << (v1::OUTPUT_QDD - 1) && RBDGRAD_OUTPUT_DQDD_DQ == 1u << (v1::OUTPUT_DQDD_DQ - 1) &&
+                    RBDGRAD_OUTPUT_M == 1u << (v1::OUTPUT_M - 1),
+                "Output k of the proto is output flag 1 << (k - 1) of the plugin ABI");
+  std::uint32_t flags = 0;
+  for (int o : request.outputs())
+    if (o >= 1 && o <= 8) flags |= 1u << (o - 1);
+  return flags;
+}
+
 }  // namespace
 
 ComputeContext::Admission ComputeContext::admit() noexcept {
@@ -70,17 +82,12 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   if (!precision_flag(request_.precision(), precision)) {
     return invalid_argument(prefix_ + "precision has unknown value " + std::to_string(request_.precision()));
   }
-  static_assert(RBDGRAD_OUTPUT_QDD == 1u << (v1::OUTPUT_QDD - 1) && RBDGRAD_OUTPUT_DQDD_DQ == 1u << (v1::OUTPUT_DQDD_DQ - 1) &&
-                    RBDGRAD_OUTPUT_M == 1u << (v1::OUTPUT_M - 1),
-                "Output k of the proto is output flag 1 << (k - 1) of the plugin ABI");
   hint_ = std::string(backend);
   RouteQuery query;
   query.backend = backend;
   query.precision = precision;
   query.n = request_.num_states();
-  // the outputs as flags (Output k is flag 1 << (k - 1)); unknown values are refused below
-  for (int o : request_.outputs())
-    if (o >= 1 && o <= 8) query.outputs |= 1u << (o - 1);
+  query.outputs = output_flags(request_);
   double wait_us = 0;
   if (Status s = context.scheduler().route(*model, query, route_, predicted_us_, &wait_us); !s)
     return with_prefix(prefix_, s);
@@ -156,12 +163,11 @@ void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch&
     compute_time_ = compute;
     batch_requests_ = group_requests;
     batch_states_ = group_states;
-    const std::size_t scalar = own.precision == RBDGRAD_PRECISION_F64 ? 8 : 4;
     const auto nv = static_cast<std::size_t>(batch_.nv());
     for (int o = 0; o < 8; ++o) {
       const std::uint32_t flag = 1u << o;
       if ((own.outputs & flag) == 0) continue;
-      const std::size_t per_state = ((o == 0 || o == 4) ? nv : nv * nv) * scalar;  // qdd and tau are vectors
+      const std::size_t per_state = ((flag & plugin::kMatrixOutputs) ? nv * nv : nv) * plugin::scalar_bytes(own.precision);
       std::memcpy(plugin::output_pointer(own, flag),
                   static_cast<const std::byte*>(plugin::output_pointer(group, flag)) + first * per_state,
                   own.n * per_state);
@@ -272,8 +278,7 @@ bool ComputeCall::prepare_failover(Status& failure) {
   std::uint32_t asked = 0;
   if (precision_flag(request_.precision(), asked)) query.precision = asked;
   query.n = request_.num_states();
-  for (int o : request_.outputs())
-    if (o >= 1 && o <= 8) query.outputs |= 1u << (o - 1);
+  query.outputs = output_flags(request_);
   query.exclude = &failed_;
   Route next;
   double predicted = 0;

@@ -11,9 +11,6 @@ namespace rbdgrad::server {
 
 namespace {
 
-constexpr std::uint32_t kPrecisionOrder[] = {RBDGRAD_PRECISION_F64, RBDGRAD_PRECISION_F32,
-                                             RBDGRAD_PRECISION_FIXED_Q16_16};
-
 std::string utc_now() {
   const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm tm{};
@@ -67,8 +64,8 @@ void Scheduler::calibrate(bool remeasure, const std::function<void(const std::st
         } else if (const CalibrationEntry* saved = file.find(backend.name, model->name, precision);
                    !remeasure && saved != nullptr && saved->fingerprint == fingerprint && !saved->latency.empty()) {
           entry = *saved;
-        } else if (config_.calibrate == "off") {
-          continue;
+        } else if (config_.calibrate == "off" && !remeasure) {
+          continue;  // off at start-up; an explicit Calibrate still measures
         } else {
           // the plugin's own batch limit
           CalibrationOptions o = options;

@@ -51,7 +51,8 @@ class Scheduler {
   /// Fills the latency models: entries of the configured file whose fingerprints still hold are
   /// reused, the plugins' own models (the FPGA's cycle count) are taken as given, every other
   /// (backend, model, precision) is measured on its pool (calibration.hpp), and the file is
-  /// rewritten when anything was measured. `remeasure` measures even what the file holds. Each
+  /// rewritten when anything was measured. `remeasure` (Calibrate) measures even what the file
+  /// holds, and also with calibrate "off". Each
   /// step is reported through `log` (a line each); failures there are logged and skipped: a
   /// backend without a model is routed to only when no backend has one.
   void calibrate(bool remeasure, const std::function<void(const std::string&)>& log);

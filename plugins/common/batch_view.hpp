@@ -27,6 +27,11 @@ template <class S> struct Slot { using type = S; };
 template <> struct Slot<Q16_16> { using type = std::int32_t; };
 template <class S> using SlotT = typename Slot<S>::type;
 
+/// Bytes of one scalar of a batch in `precision` (one flag): 8 for f64, 4 for f32 and Q16.16.
+inline constexpr std::size_t scalar_bytes(std::uint32_t precision) {
+  return precision == RBDGRAD_PRECISION_F64 ? sizeof(double) : sizeof(std::int32_t);
+}
+
 // The precision flag of S.
 template <class S> constexpr rbdgrad_precision precision_of();
 template <> constexpr rbdgrad_precision precision_of<double>() { return RBDGRAD_PRECISION_F64; }

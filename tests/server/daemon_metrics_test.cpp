@@ -8,7 +8,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <string>
+#include <thread>
 
 #include "daemon_test_support.hpp"
 
@@ -50,6 +52,10 @@ TEST(DaemonMetrics, CountsRequestsAndServesThemOverHttp) {
     v1::ComputeResponse resp;
     (void)stub->Compute(&ctx, make_request(model, kIiwaNv, 5, 1, "m"), &resp);
   }
+  // a request counts as in flight until gRPC is done with its response, a little after the client
+  // has it
+  for (int i = 0; i < 400 && daemon->service().in_flight() != 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   const std::string scraped = http_get(daemon->metrics().port(), "/metrics");
   EXPECT_THAT(scraped, HasSubstr("200 OK"));
   EXPECT_THAT(scraped, HasSubstr("rbdgrad_requests_total{backend=\"cpu\",code=\"ok\",mode=\"none\",model=\"iiwa14\","

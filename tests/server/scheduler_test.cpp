@@ -217,6 +217,11 @@ TEST(Scheduler, WithoutModelsTheCpuTakesEverything) {
   EXPECT_EQ(route(s, f.iiwa(), 20000), "fpga");
   // f64: no backend with a model can take it, BackendPool's rule picks the cpu
   EXPECT_EQ(route(s, f.iiwa(), 1, RBDGRAD_PRECISION_F64), "cpu");
+  EXPECT_EQ(s.table().find("cpu", "iiwa14", RBDGRAD_PRECISION_F64), nullptr);
+  // an explicit calibration (the Calibrate RPC) measures all the same
+  calibrate(s, true);
+  EXPECT_NE(s.table().find("cpu", "iiwa14", RBDGRAD_PRECISION_F64), nullptr);
+  EXPECT_EQ(route(s, f.iiwa(), 20000), "cuda");
 }
 
 TEST(Scheduler, CalibrationFileIsReusedWhileTheFingerprintHolds) {
