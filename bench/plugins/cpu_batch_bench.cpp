@@ -1,6 +1,7 @@
 // Benchmarks for plugins/cpu: one batch of N gradients (fd_derivatives, tau input, M^-1 computed,
 // outputs d qdd/d q and d qdd/d qd in f64) through CpuInstance, on 1 and 2 persistent threads,
-// next to the same states computed sequentially on the caller's thread with the core library.
+// next to the same states computed sequentially on the caller's thread with the core library;
+// and small batches on 4, 8 and 16 threads (cpu_plugin_many), for many-core machines.
 // Figures are microseconds per batch, comparable to the batch table of ../shared/anchors.md.
 #include <benchmark/benchmark.h>
 
