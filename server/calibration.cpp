@@ -4,18 +4,20 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <future>
 #include <random>
+#include <stdexcept>
 #include <thread>
 
-#include "common/batch_view.hpp"
+#include "request_batch.hpp"
 
 
 namespace rbdgrad::server {
 
 namespace {
+
+namespace v1 = rbdgrad::v1;
 
 // FNV-1a, 64 bits
 struct Hash {
@@ -49,60 +51,40 @@ std::string cpu_model_name() {
   return "unknown cpu";
 }
 
-// n random states of the gradient request, in `precision`: q within half the joints' limits (the
-// whole circle's half for unlimited ones), qd and tau in [-0.5, 0.5], moderate enough for Q16.16
-struct CalibrationBatch {
-  std::vector<unsigned char> q, qd, tau, qdd, dq, dqd;
-  std::vector<std::int32_t> status;
-  rbdgrad_batch raw{};
-
-  CalibrationBatch(const ServedModel& model, std::uint32_t precision, std::uint64_t n) {
-    const std::size_t nv = static_cast<std::size_t>(model.model.nv), size = plugin::scalar_bytes(precision);
-    const std::size_t vec = n * nv;
-    std::mt19937_64 rng(n * 7919 + nv);
-    std::uniform_real_distribution<double> unit(-0.5, 0.5);
-    auto fill = [&](std::vector<unsigned char>& to, auto value_of) {
-      to.resize(vec * size);
-      for (std::size_t e = 0; e < vec; ++e) {
-        const double x = value_of(e % nv);
-        if (precision == RBDGRAD_PRECISION_F64) {
-          std::memcpy(to.data() + e * size, &x, size);
-        } else if (precision == RBDGRAD_PRECISION_F32) {
-          const float f = static_cast<float>(x);
-          std::memcpy(to.data() + e * size, &f, size);
-        } else {
-          const std::int32_t raw_value = static_cast<std::int32_t>(std::lround(x * 65536.0));
-          std::memcpy(to.data() + e * size, &raw_value, size);
-        }
-      }
-    };
-    fill(q, [&](std::size_t j) {
-      const JointInfo& joint = model.model.joints[j];
-      const bool limited = joint.upper_limit > joint.lower_limit;
-      const double mid = limited ? 0.5 * (joint.lower_limit + joint.upper_limit) : 0.0;
-      const double half = limited ? 0.5 * (joint.upper_limit - joint.lower_limit) : M_PI;
-      return mid + half * unit(rng);
-    });
-    fill(qd, [&](std::size_t) { return unit(rng); });
-    fill(tau, [&](std::size_t) { return unit(rng); });
-    qdd.resize(vec * size);
-    dq.resize(vec * nv * size);
-    dqd.resize(vec * nv * size);
-    status.resize(n);
-    raw.struct_size = sizeof(raw);
-    raw.n = n;
-    raw.precision = precision;
-    raw.input_kind = RBDGRAD_INPUT_TAU;
-    raw.outputs = RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
-    raw.q = q.data();
-    raw.qd = qd.data();
-    raw.u = tau.data();
-    raw.qdd = qdd.data();
-    raw.dqdd_dq = dq.data();
-    raw.dqdd_dqd = dqd.data();
-    raw.state_status = status.data();
+// n random states of the gradient request, converted into `precision` as the daemon converts a
+// request (RequestBatch): q within half the joints' limits (the whole circle's half for unlimited
+// ones), qd and tau in [-0.5, 0.5], moderate enough for Q16.16
+RequestBatch calibration_batch(const ServedModel& model, std::uint32_t precision, std::uint64_t n) {
+  const std::size_t nv = static_cast<std::size_t>(model.model.nv);
+  std::mt19937_64 rng(n * 7919 + nv);
+  std::uniform_real_distribution<double> unit(-0.5, 0.5);
+  std::vector<double> q(n * nv), qd(n * nv), tau(n * nv);
+  for (std::size_t e = 0; e < q.size(); ++e) {
+    const JointInfo& joint = model.model.joints[e % nv];
+    const bool limited = joint.upper_limit > joint.lower_limit;
+    const double mid = limited ? 0.5 * (joint.lower_limit + joint.upper_limit) : 0.0;
+    const double half = limited ? 0.5 * (joint.upper_limit - joint.lower_limit) : M_PI;
+    q[e] = mid + half * unit(rng);
+    qd[e] = unit(rng);
+    tau[e] = unit(rng);
   }
-};
+  v1::ComputeRequest request;
+  request.set_num_states(static_cast<std::uint32_t>(n));
+  request.set_input_kind(v1::INPUT_KIND_TAU);
+  for (v1::Output o : {v1::OUTPUT_QDD, v1::OUTPUT_DQDD_DQ, v1::OUTPUT_DQDD_DQD}) request.add_outputs(o);
+  for (const auto& [tensor, values] : {std::pair{request.mutable_q(), &q}, std::pair{request.mutable_qd(), &qd},
+                                       std::pair{request.mutable_u(), &tau}}) {
+    tensor->set_type(v1::SCALAR_TYPE_F64);
+    tensor->set_data(values->data(), values->size() * sizeof(double));
+  }
+  RequestBatch batch;
+  // the states are valid by construction: an error here is a bug
+  if (Status s = RequestBatch::from_request(request, model.model.nv, static_cast<rbdgrad_precision>(precision),
+                                            static_cast<std::uint32_t>(n), batch);
+      !s)
+    throw std::logic_error("calibration batch: " + s.message());
+  return batch;
+}
 
 // The sweep, as one job: it has one instance to itself for the whole sweep.
 class SweepJob : public PoolJob {
@@ -114,11 +96,11 @@ class SweepJob : public PoolJob {
     Status status = Status::ok();
     try {
       for (const std::uint64_t n : options_.sizes) {
-        CalibrationBatch batch(model_, precision_, n);
+        const RequestBatch batch = calibration_batch(model_, precision_, n);
         std::vector<double> us;
         for (int r = 0; r <= options_.repetitions; ++r) {
           const auto start = std::chrono::steady_clock::now();
-          const Status s = instance.compute(batch.raw);
+          const Status s = instance.compute(batch.batch());
           const double t = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
           // a state the precision cannot hold (fixed-point range) still took its time
           if (!s && s.code() != StatusCode::kOutOfRange && s.code() != StatusCode::kFailedPrecondition) {
