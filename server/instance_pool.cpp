@@ -1,6 +1,7 @@
 // Exclusive use of plugin instances: inline when free, else a FIFO served by one thread per instance.
 #include "instance_pool.hpp"
 
+#include <algorithm>
 #include <utility>
 
 namespace rbdgrad::server {
@@ -8,7 +9,8 @@ namespace rbdgrad::server {
 InstancePool::InstancePool(std::vector<std::unique_ptr<PluginInstance>> instances, Options options)
     : options_(options), instances_(std::move(instances)) {
   free_.reserve(instances_.size());
-  for (const auto& instance : instances_) free_.push_back(instance.get());
+  for (std::size_t i = 0; i < instances_.size(); ++i) free_.push_back(i);
+  running_.resize(instances_.size());
   threads_.reserve(instances_.size());
   for (std::size_t i = 0; i < instances_.size(); ++i) threads_.emplace_back(&InstancePool::thread_loop, this);
 }
@@ -22,7 +24,7 @@ InstancePool::~InstancePool() {
   for (std::thread& t : threads_) t.join();
 }
 
-bool InstancePool::take_work(PoolJob*& job, PluginInstance*& instance) {
+bool InstancePool::take_work(PoolJob*& job, std::size_t& instance) {
   if (head_ == nullptr || free_.empty()) return false;
   job = std::exchange(head_, head_->next_);
   if (head_ == nullptr) tail_ = nullptr;
@@ -30,16 +32,21 @@ bool InstancePool::take_work(PoolJob*& job, PluginInstance*& instance) {
   job->next_ = nullptr;
   instance = free_.back();
   free_.pop_back();
+  start_running(instance, job->predicted_us_);
   return true;
 }
 
-void InstancePool::give_back(PluginInstance* instance, double predicted_us) {
+void InstancePool::start_running(std::size_t i, double predicted_us) {
+  running_[i] = {Clock::now(), predicted_us};
+}
+
+void InstancePool::give_back(std::size_t i) {
   bool queued = false;
   {
     std::lock_guard lock(mutex_);
-    free_.push_back(instance);
+    free_.push_back(i);
     queued = head_ != nullptr;
-    pending_us_ -= predicted_us;
+    pending_us_ -= running_[i].predicted_us;
     // rounding must not leave a phantom backlog once everything has run
     if (head_ == nullptr && free_.size() == instances_.size()) pending_us_ = 0;
   }
@@ -48,7 +55,8 @@ void InstancePool::give_back(PluginInstance* instance, double predicted_us) {
 }
 
 void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predicted_us) {
-  PluginInstance* instance = nullptr;
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::size_t instance = kNone;
   job.predicted_us_ = predicted_us;
   {
     std::lock_guard lock(mutex_);
@@ -57,6 +65,7 @@ void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predict
     if (num_states <= options_.inline_max_states && head_ == nullptr && !free_.empty()) {
       instance = free_.back();
       free_.pop_back();
+      start_running(instance, predicted_us);
     } else {
       job.next_ = nullptr;
       if (tail_ != nullptr) {
@@ -68,39 +77,51 @@ void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predict
       ++queued_;
     }
   }
-  if (instance == nullptr) {
+  if (instance == kNone) {
     work_.notify_one();
     return;
   }
-  job.run(*instance);  // the job may be gone after this
-  give_back(instance, predicted_us);
+  job.run(*instances_[instance]);  // the job may be gone after this
+  give_back(instance);
+}
+
+double InstancePool::pending_locked() const {
+  if (free_.size() == instances_.size()) return pending_us_;
+  // free_ is small (one entry per instance): a running instance is one not in it
+  const Clock::time_point now = Clock::now();
+  double overrun_us = 0;
+  for (std::size_t i = 0; i < running_.size(); ++i) {
+    if (std::find(free_.begin(), free_.end(), i) != free_.end()) continue;
+    const double elapsed_us = std::chrono::duration<double, std::micro>(now - running_[i].since).count();
+    overrun_us += std::max(0.0, elapsed_us - running_[i].predicted_us);
+  }
+  return pending_us_ + overrun_us;
 }
 
 PoolLoad InstancePool::load() const {
   std::lock_guard lock(mutex_);
-  return {queued_, instances_.size() - free_.size(), pending_us_};
+  return {queued_, instances_.size() - free_.size(), pending_locked()};
 }
 
 double InstancePool::predicted_wait_us() const {
   std::lock_guard lock(mutex_);
   // an instance is free and nothing waits: no wait, whatever runs elsewhere
   if (head_ == nullptr && !free_.empty()) return 0;
-  return pending_us_ / static_cast<double>(instances_.size());
+  return pending_locked() / static_cast<double>(instances_.size());
 }
 
 void InstancePool::thread_loop() {
   for (;;) {
     PoolJob* job = nullptr;
-    PluginInstance* instance = nullptr;
+    std::size_t instance = 0;
     {
       std::unique_lock lock(mutex_);
       // stop only once the queue is empty: an accepted job is never dropped
       work_.wait(lock, [&] { return take_work(job, instance) || (stop_ && head_ == nullptr); });
       if (job == nullptr) return;
     }
-    const double predicted_us = job->predicted_us_;
-    job->run(*instance);  // the job may be gone after this
-    give_back(instance, predicted_us);
+    job->run(*instances_[instance]);  // the job may be gone after this
+    give_back(instance);
   }
 }
 

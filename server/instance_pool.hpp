@@ -5,6 +5,7 @@
 // start here, once: no thread is created per request.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -41,7 +42,9 @@ class PoolJob {
 struct PoolLoad {
   std::size_t queued = 0;   // jobs waiting for an instance
   std::size_t running = 0;  // instances computing
-  double pending_us = 0;    // the predicted time of the jobs queued and running
+  // the predicted time of the jobs queued and running; a running job that has overrun its
+  // prediction counts at the time it has run so far (it is expected to take as long again)
+  double pending_us = 0;
 };
 
 class InstancePool {
@@ -75,15 +78,28 @@ class InstancePool {
   /// The work queued and running now. Thread-safe.
   PoolLoad load() const;
   /// How long a job submitted now would wait for an instance, by the predictions: the pending
-  /// work spread over the instances. Thread-safe.
+  /// work (load().pending_us) spread over the instances. An instance that hangs makes it grow
+  /// with the time it has hung, so the cost policy routes around it and deadlines see it.
+  /// Thread-safe.
   double predicted_wait_us() const;
 
  private:
+  using Clock = std::chrono::steady_clock;
+  // what runs on instance i: since when, and its prediction
+  struct Running {
+    Clock::time_point since{};
+    double predicted_us = 0;
+  };
+
   void thread_loop();
   // under mutex_: hands a free instance to the queue's head, if both exist
-  bool take_work(PoolJob*& job, PluginInstance*& instance);
-  // returns the instance and takes the finished job's prediction off the pending work
-  void give_back(PluginInstance* instance, double predicted_us);
+  bool take_work(PoolJob*& job, std::size_t& instance);
+  // under mutex_: marks instance i busy with a job predicted to take predicted_us
+  void start_running(std::size_t i, double predicted_us);
+  // returns instance i and takes the finished job's prediction off the pending work
+  void give_back(std::size_t i);
+  // under mutex_: pending_us_ plus what the running jobs have overrun their predictions by
+  double pending_locked() const;
 
   const Options options_;
   std::vector<std::unique_ptr<PluginInstance>> instances_;
@@ -92,7 +108,8 @@ class InstancePool {
   std::size_t queued_ = 0;   // jobs in the FIFO
   double pending_us_ = 0;    // predictions of the queued and running jobs
   std::condition_variable work_;       // a job and a free instance, or stop_
-  std::vector<PluginInstance*> free_;  // (size()) reserved once: push/pop never allocate
+  std::vector<std::size_t> free_;      // indices of free instances; (size()) reserved once
+  std::vector<Running> running_;       // (size()), entry i meaningful while i is not free
   PoolJob* head_ = nullptr;            // FIFO of waiting jobs
   PoolJob* tail_ = nullptr;
   bool stop_ = false;

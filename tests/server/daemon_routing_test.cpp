@@ -177,5 +177,74 @@ TEST(DaemonRouting, RequestsThatCannotMeetTheirDeadlineFailFast) {
   }
 }
 
+// A backend that hangs: while its instance overruns its prediction, the cost policy routes around
+// it, a request pinned to it with a short deadline is refused at once, one that was queued behind
+// the hung call is refused when its deadline has passed (it never takes the backend's time), and
+// the hung request itself is answered once the backend returns.
+TEST(DaemonRouting, AHungBackendIsRoutedAroundAndDeadlinesHold) {
+  DaemonOptions options = routing_options();
+  options.config.plugins[0].options["hang_us"] = "1500000";  // the fpga hangs 1.5 s on the marker
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  const auto channel = channel_to(daemon->addresses()[0]);
+
+  v1::ComputeRequest hang = make_request("iiwa14", kIiwaNv, 1, 5, "hang", kCudaOutputs);
+  set_value(hang.mutable_q(), 0, -998.0);
+  hang.set_precision(v1::PRECISION_AUTO);
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA) << "the fpga's 20 us wins";
+  grpc::Status hung_status;
+  v1::ComputeResponse hung_response;
+  std::thread hung([&] {
+    auto stub = v1::Dynamics::NewStub(channel);
+    grpc::ClientContext ctx;
+    hung_status = stub->Compute(&ctx, hang, &hung_response);
+  });
+  // queued behind it right away (the hang is not visible yet): admitted, then expired in the queue
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  v1::ComputeRequest queued = make_request("iiwa14", kIiwaNv, 1, 6, "queued", kCudaOutputs);
+  queued.set_precision(v1::PRECISION_FIXED);
+  queued.set_backend(v1::BACKEND_FPGA);
+  grpc::Status queued_status;
+  std::thread behind([&] {
+    auto stub = v1::Dynamics::NewStub(channel);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(300));
+    v1::ComputeResponse resp;
+    queued_status = stub->Compute(&ctx, queued, &resp);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+
+  // 0.4 s into a call predicted at 20 us: automatic requests go to the cpu
+  const v1::ComputeResponse routed = compute_auto(channel, 1, v1::PRECISION_AUTO);
+  EXPECT_EQ(routed.backend(), v1::BACKEND_CPU);
+  {
+    // pinned to the fpga with 200 ms left: refused now, naming the wait
+    auto stub = v1::Dynamics::NewStub(channel);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
+    v1::ComputeRequest pinned = queued;
+    pinned.set_request_id("pinned");
+    v1::ComputeResponse resp;
+    const auto t0 = std::chrono::steady_clock::now();
+    const grpc::Status s = stub->Compute(&ctx, pinned, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("request 'pinned': cannot finish before its deadline"));
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("waiting for an instance"));
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(100)) << "not refused at once";
+  }
+  hung.join();
+  behind.join();
+  EXPECT_TRUE(hung_status.ok()) << hung_status.error_message();
+  EXPECT_EQ(hung_response.backend(), v1::BACKEND_FPGA);
+  EXPECT_EQ(hung_response.request_id(), "hang");
+  EXPECT_EQ(queued_status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  // the daemon's own refusal of the queued request (the client's deadline fired first; the
+  // metrics show that the server answered it without computing it)
+  const std::string text = daemon->metrics().text();
+  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_requests_total{backend=\"fpga\",code=\"deadline_exceeded\""));
+  // and the fpga serves again
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
+}
+
 }  // namespace
 }  // namespace rbdgrad::server

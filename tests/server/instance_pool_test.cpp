@@ -124,5 +124,47 @@ TEST(InstancePool, NeverRunsTwoJobsOnOneInstanceAtOnce) {
   EXPECT_EQ(rec.overlaps.load(), 0);
 }
 
+// A job that runs until released, for the pending-work tests.
+class BlockingJob final : public PoolJob {
+ public:
+  void run(PluginInstance&) noexcept override {
+    started = true;
+    while (!release) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    done = true;
+  }
+  std::atomic<bool> started{false}, release{false}, done{false};
+};
+
+// The predicted wait counts queued and running predictions, and a running job past its
+// prediction at the time it has run (a hung instance is avoided by the cost policy).
+TEST(InstancePool, PredictedWaitGrowsWhileAJobOverrunsItsPrediction) {
+  std::unique_ptr<Plugin> plugin;
+  auto instances = fake_instances(1, plugin);
+  ASSERT_EQ(instances.size(), 1u);
+  InstancePool pool(std::move(instances), InstancePool::Options{0});
+  EXPECT_EQ(pool.predicted_wait_us(), 0.0);
+  BlockingJob hung, queued;
+  pool.submit(hung, 1, 1000.0);  // predicted 1 ms
+  while (!hung.started) std::this_thread::yield();
+  const double early = pool.predicted_wait_us();
+  EXPECT_GE(early, 1000.0);
+  EXPECT_LT(early, 50000.0);
+  pool.submit(queued, 1, 500.0);
+  EXPECT_EQ(pool.load().queued, 1u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  // 120 ms into a job predicted at 1 ms: it counts at >= 120 ms, plus the queued job's 0.5 ms
+  const double late = pool.predicted_wait_us();
+  EXPECT_GE(late, 120000.0 + 500.0);
+  EXPECT_GE(pool.load().pending_us, late);
+  EXPECT_EQ(pool.load().running, 1u);
+  hung.release = true;
+  queued.release = true;
+  while (!queued.done) std::this_thread::yield();
+  // give_back runs after the job: wait for the pool to settle
+  for (int i = 0; i < 1000 && pool.load().running != 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  EXPECT_EQ(pool.load().pending_us, 0.0);
+  EXPECT_EQ(pool.predicted_wait_us(), 0.0);
+}
+
 }  // namespace
 }  // namespace rbdgrad::server

@@ -5,7 +5,9 @@
 // writes output element e of state k as k + e / 1000 (exactly predictable; raw k * 65536 + e in
 // Q16.16). estimate_latency (fpga only) answers fixed_us + per_state_us * n without sleeping.
 // With the option fail_on_marker=1, a batch whose first q is -999 fails as a whole,
-// RBDGRAD_ERROR_UNAVAILABLE "device lost" (a lost device, for the failover tests).
+// RBDGRAD_ERROR_UNAVAILABLE "device lost" (a lost device, for the failover tests). With the option
+// hang_us=T, a batch whose first q is -998 sleeps T microseconds before it computes (a hung
+// device, bounded so that the daemon can stop).
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -29,6 +31,7 @@ struct rbdgrad_instance {
   double fixed_us = 0;
   double per_state_us = 0;
   bool fail_on_marker = false;
+  double hang_us = 0;
 };
 
 namespace {
@@ -66,6 +69,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* model, const rbdgrad_op
       made->fixed_us = std::strtod(options->values[i], nullptr);
     } else if (key == "per_state_us") {
       made->per_state_us = std::strtod(options->values[i], nullptr);
+    } else if (key == "hang_us") {
+      made->hang_us = std::strtod(options->values[i], nullptr);
     } else if (key == "fail_on_marker") {
       made->fail_on_marker = std::string(options->values[i]) == "1";
     } else if (key != "threads") {  // the daemon gives the backend named cpu its thread count
@@ -89,14 +94,16 @@ void fill(const rbdgrad_batch* b, uint32_t nv) {
   }
 }
 
-bool has_marker(const rbdgrad_batch* b) {
-  if (b->precision == RBDGRAD_PRECISION_F64) return static_cast<const double*>(b->q)[0] == -999.0;
-  if (b->precision == RBDGRAD_PRECISION_F32) return static_cast<const float*>(b->q)[0] == -999.0f;
-  return static_cast<const int32_t*>(b->q)[0] == -999 * 65536;
+bool has_marker(const rbdgrad_batch* b, int marker) {
+  if (b->precision == RBDGRAD_PRECISION_F64) return static_cast<const double*>(b->q)[0] == marker;
+  if (b->precision == RBDGRAD_PRECISION_F32) return static_cast<const float*>(b->q)[0] == static_cast<float>(marker);
+  return static_cast<const int32_t*>(b->q)[0] == marker * 65536;
 }
 
 rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
-  if (instance->fail_on_marker && has_marker(batch)) return make_error(RBDGRAD_ERROR_UNAVAILABLE, "device lost");
+  if (instance->fail_on_marker && has_marker(batch, -999)) return make_error(RBDGRAD_ERROR_UNAVAILABLE, "device lost");
+  if (instance->hang_us > 0 && has_marker(batch, -998))
+    std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int64_t>(instance->hang_us)));
   const double us = instance->fixed_us + instance->per_state_us * static_cast<double>(batch->n);
   if (us > 0) std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int64_t>(us)));
   if (batch->precision == RBDGRAD_PRECISION_F64) {
