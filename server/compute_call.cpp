@@ -91,6 +91,25 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   double wait_us = 0;
   if (Status s = context.scheduler().route(*model, query, route_, predicted_us_, &wait_us); !s)
     return with_prefix(prefix_, s);
+  if (hint_.empty() && predicted_us_ > 0) {
+    std::vector<SplitPart> shares = context.scheduler().split(*model, query, route_.precision, wait_us + predicted_us_);
+    if (!shares.empty()) {
+      // the response names the backend with the most states; the deadline sees the slowest share
+      const auto most = std::max_element(shares.begin(), shares.end(),
+                                         [](const SplitPart& a, const SplitPart& b) { return a.n < b.n; });
+      const auto last = std::max_element(shares.begin(), shares.end(), [](const SplitPart& a, const SplitPart& b) {
+        return a.wait_us + a.compute_us < b.wait_us + b.compute_us;
+      });
+      route_ = most->route;
+      wait_us = last->wait_us;
+      predicted_us_ = last->compute_us;
+      parts_.resize(shares.size());
+      for (std::size_t i = 0; i < shares.size(); ++i) {
+        parts_[i].call = this;
+        parts_[i].part = shares[i];
+      }
+    }
+  }
   // a request that would miss its deadline fails now instead of taking a backend's time
   if (deadline_ != Clock::time_point::max() && predicted_us_ > 0) {
     const double left_us = std::chrono::duration<double, std::micro>(deadline_ - Clock::now()).count();
@@ -120,6 +139,12 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   if (Status s = route_.plugin->can_run(model->desc.desc(), route_.precision, b.outputs, b.n); !s) {
     return with_prefix(prefix_, s);
   }
+  for (PartJob& p : parts_) {
+    const Route& r = p.part.route;
+    if (Status s = r.plugin->can_run(model->desc.desc(), r.precision, b.outputs, p.part.n); !s)
+      return with_prefix(prefix_, s);
+    p.batch = plugin::states_of(b, batch_.nv(), p.part.first, p.part.n);
+  }
   return Status::ok();
 }
 
@@ -136,6 +161,20 @@ void ComputeCall::run(PluginInstance& instance) noexcept {
 }
 
 void ComputeCall::submit() {
+  if (!parts_.empty()) {
+    parts_left_.store(parts_.size(), std::memory_order_relaxed);
+    batch_states_ = batch_.num_states();
+    // The last share to finish may complete (and free) the call: nothing here is touched after
+    // the last submit. Every share but the last is queued as too large to run inline, so that
+    // they all start on pool threads before the last may run on this one.
+    PartJob* const jobs = parts_.data();
+    const std::size_t count = parts_.size();
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::uint64_t states = i + 1 < count ? std::numeric_limits<std::uint64_t>::max() : jobs[i].part.n;
+      jobs[i].part.route.pool->submit(jobs[i], states, jobs[i].part.compute_us);
+    }
+    return;
+  }
   Coalescer* coalescer = context_->coalescer();
   if (coalescer != nullptr && coalescer->takes(*this)) {
     coalescer->add(*this);
@@ -143,6 +182,70 @@ void ComputeCall::submit() {
   }
   batch_states_ = batch_.num_states();
   route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+}
+
+void ComputeCall::PartJob::run(PluginInstance& instance) noexcept {
+  started = Clock::now();
+  if (started > call->deadline_) {
+    status = Status(StatusCode::kDeadlineExceeded, "");
+  } else {
+    try {
+      status = instance.compute(batch);
+    } catch (const std::exception& e) {
+      status = Status(StatusCode::kInternal, std::string("unexpected error: ") + e.what());
+    } catch (...) {
+      status = Status(StatusCode::kInternal, "unexpected error");
+    }
+    compute = Clock::now() - started;
+  }
+  call->part_done();  // may complete and free the call, and this job with it
+}
+
+void ComputeCall::part_done() noexcept {
+  if (parts_left_.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
+  try {
+    // queue_us until the first share started; compute_us the longest share
+    started_ = parts_.front().started;
+    const PartJob* failed = nullptr;
+    for (const PartJob& p : parts_) {
+      started_ = std::min(started_, p.started);
+      compute_time_ = std::max(compute_time_, p.compute);
+      if (!p.status && failed == nullptr) failed = &p;
+    }
+    if (failed == nullptr) {
+      finish();
+    } else if (rerun_unsplit(*failed)) {
+      return;  // the usual path completes it
+    }
+  } catch (const std::exception& e) {
+    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
+  } catch (...) {
+    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
+  }
+  record();
+  complete();
+}
+
+bool ComputeCall::rerun_unsplit(const PartJob& failed) {
+  if (failed.status.code() == StatusCode::kDeadlineExceeded) {
+    status_ = deadline_exceeded(prefix_ + "its deadline passed after " + std::to_string(micros(failed.started - accepted_)) +
+                                " us in the queue, before it was computed");
+    return false;
+  }
+  unsplit_ = true;
+  route_ = failed.part.route;
+  Status failure = failed.status;
+  if (failure.code() == StatusCode::kUnavailable || failure.code() == StatusCode::kInternal) {
+    // the backend failed as a whole: the next best takes the whole request (failover)
+    if (!prepare_failover(failure)) {
+      status_ = with_prefix(prefix_, failure);
+      return false;
+    }
+  }
+  // else a state failed, numbered within its share: that backend again on every state says
+  // which, and applies the fixed-point fallback where it should
+  route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+  return true;
 }
 
 void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch& group, std::uint64_t first,
@@ -201,6 +304,10 @@ void ComputeCall::record() const {
   r.total_seconds = std::chrono::duration<double>(now - accepted_).count();
   r.failed_backends = failed_;
   r.batch_states = batch_states_;
+  if (split()) {
+    for (const PartJob& p : parts_)
+      r.parts.push_back({p.part.route.backend->name, p.part.route.backend->description.mode, p.part.n});
+  }
   if (in_fallback_ && status_) r.fallback_states = fallback_states_.size();
   context_->metrics()->record(r);
 }
@@ -372,6 +479,15 @@ void ComputeCall::finish() {
   response_.set_backend_mode(route_.backend->description.mode);
   for (const std::string& f : failovers_) response_.add_failovers(f);
   response_.set_batch_requests(static_cast<std::uint32_t>(batch_requests_));
+  if (split()) {
+    for (const PartJob& p : parts_) {
+      v1::BatchPart* part = response_.add_parts();
+      part->set_backend(backend_enum(p.part.route.backend->name));
+      part->set_first_state(static_cast<std::uint32_t>(p.part.first));
+      part->set_num_states(static_cast<std::uint32_t>(p.part.n));
+      part->set_compute_us(micros(p.compute));
+    }
+  }
   if (in_fallback_) {
     // the recomputed states' outputs over the flagged ones, in the wire encoding
     v1::ComputeResponse fallback;

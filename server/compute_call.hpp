@@ -4,6 +4,8 @@
 // thread the InstancePool gives it), then complete() hands it back to the handler.
 // A fixed-point request whose states left the Q16.16 range runs a second time, on the fallback
 // backend's pool, for those states only, in floating point; their outputs replace the flagged ones.
+// A large automatically routed request may be split across backends (Scheduler::split): each
+// share of its states runs on its backend's pool, and the last to finish completes the call.
 #pragma once
 
 #include <atomic>
@@ -109,6 +111,9 @@ class ComputeCall : public PoolJob {
   /// returns, and again on another pool when fixed-point states fall back or when an
   /// automatically routed request's backend fails as a whole (UNAVAILABLE or INTERNAL: failover
   /// to the next best backend); complete() once at the end.
+  /// A split call hands each share to its backend's pool instead; when a share fails, the whole
+  /// request runs again unsplit (failover when that backend failed as a whole, else on that
+  /// backend, whose error then numbers the failed state within the request).
   /// With dynamic batching (ComputeContext::coalescer) a small request first waits for others to
   /// share its backend call (finish_in_group).
   void submit();
@@ -142,7 +147,24 @@ class ComputeCall : public PoolJob {
   virtual void complete() noexcept = 0;
 
  private:
+  // One backend's share of a split call: states [part.first, part.first + part.n) of batch_.
+  class PartJob final : public PoolJob {
+   public:
+    void run(PluginInstance& instance) noexcept override;
+    ComputeCall* call = nullptr;
+    SplitPart part;
+    rbdgrad_batch batch{};  // the share's view of batch_ (plugin::states_of)
+    Status status;
+    Clock::time_point started{};
+    Clock::duration compute{};
+  };
+
   void run(PluginInstance& instance) noexcept final;
+  // A share has run: the last one finishes the call, or runs it again unsplit when one failed.
+  void part_done() noexcept;
+  // After share `failed` failed: the whole request again, alone (true), or the failure stands.
+  bool rerun_unsplit(const PartJob& failed);
+  bool split() const noexcept { return !parts_.empty() && !unsplit_; }
   // the body of run() that may throw; false when the call goes on to its fallback run
   bool run_stage(PluginInstance& instance);
   // After the primary run failed with `failure`: when it was routed automatically and the backend
@@ -182,6 +204,10 @@ class ComputeCall : public PoolJob {
   std::vector<std::uint32_t> fallback_states_;
   RequestBatch fallback_batch_;
   Route fallback_route_;
+  // a split call's shares (sized once, in prepare); unsplit_ once a failed share made it run whole
+  std::vector<PartJob> parts_;
+  std::atomic<std::size_t> parts_left_{0};
+  bool unsplit_ = false;
 };
 
 }  // namespace rbdgrad::server

@@ -219,7 +219,7 @@ class Parser {
     if (Status s = require_map("scheduler", node); !s) return s;
     if (Status s = check_keys("scheduler", node,
                               {"policy", "small_n", "large_n", "calibrate", "calibration_file", "calibration_sizes",
-                               "preferred_batch_states"});
+                               "preferred_batch_states", "split_min_states"});
         !s)
       return s;
     if (node["policy"]) {
@@ -234,6 +234,12 @@ class Parser {
     if (node["preferred_batch_states"]) {
       if (Status s = get_int("scheduler.preferred_batch_states", node["preferred_batch_states"], 1, kMaxInt32,
                              out.preferred_batch_states);
+          !s)
+        return s;
+    }
+    if (node["split_min_states"]) {
+      if (Status s = get_int("scheduler.split_min_states", node["split_min_states"], 0, kMaxInt32,
+                             out.split_min_states);
           !s)
         return s;
     }
@@ -461,6 +467,9 @@ std::string describe(const ServerConfig& cfg) {
   os << ", calibrate " << cfg.scheduler.calibrate << ", calibration_file "
      << (cfg.scheduler.calibration_file.empty() ? "none" : cfg.scheduler.calibration_file) << ", sizes";
   for (int64_t n : cfg.scheduler.calibration_sizes) os << " " << n;
+  os << ", split ";
+  if (cfg.scheduler.split_min_states > 0) os << "from " << cfg.scheduler.split_min_states << " states";
+  else os << "off";
   os << "\n";
   os << "metrics: " << (cfg.metrics_listen.empty() ? "not served" : "http://" + cfg.metrics_listen + "/metrics") << "\n";
   os << "log_level: " << log_level_name(cfg.log_level) << "\n";

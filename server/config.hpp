@@ -94,6 +94,10 @@ struct SchedulerConfig {
   // Dynamic batching (limits.max_queue_delay_us > 0): requests of fewer states wait for others,
   // and a group of at least this many goes at once. Default 256. Range [1, 2^31-1].
   int64_t preferred_batch_states = 256;
+  // The cost policy splits a request of at least this many states across backends (e.g. GPU and
+  // CPU) when their latency models and queues predict it finishes at least 10% sooner than on
+  // the best backend alone. 0 = never split. Default 4096. Range [0, 2^31-1].
+  int64_t split_min_states = 4096;
 
   bool operator==(const SchedulerConfig&) const = default;
 };

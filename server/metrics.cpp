@@ -86,6 +86,11 @@ Status Metrics::create(const std::string& listen, std::function<std::vector<Queu
                        .Name("rbdgrad_failovers_total")
                        .Help("Requests a backend failed as a whole and another one ran")
                        .Register(r);
+  m->split_requests_ = &prometheus::BuildCounter()
+                            .Name("rbdgrad_split_requests_total")
+                            .Help("Requests split across backends (scheduler.split_min_states)")
+                            .Register(r)
+                            .Add({});
   m->fallback_states_ = &prometheus::BuildCounter()
                              .Name("rbdgrad_fixed_point_fallback_states_total")
                              .Help("Fixed-point states that left the format's range and were computed again")
@@ -133,8 +138,17 @@ void Metrics::record(const RequestRecord& r) {
                   {"code", status_code_name(r.code)}})
       .Increment();
   const prometheus::Labels by_backend{{"backend", backend}, {"mode", mode}};
-  if (r.code == StatusCode::kOk) states_->Add(by_backend).Increment(static_cast<double>(r.states));
-  if (r.batch_states > 0) batch_states_->Add(by_backend, size_buckets()).Observe(static_cast<double>(r.batch_states));
+  if (r.parts.empty()) {
+    if (r.code == StatusCode::kOk) states_->Add(by_backend).Increment(static_cast<double>(r.states));
+    if (r.batch_states > 0) batch_states_->Add(by_backend, size_buckets()).Observe(static_cast<double>(r.batch_states));
+  } else {
+    split_requests_->Increment();
+    for (const RequestRecord::Part& p : r.parts) {
+      const prometheus::Labels part_labels{{"backend", label(p.backend)}, {"mode", label(p.mode)}};
+      if (r.code == StatusCode::kOk) states_->Add(part_labels).Increment(static_cast<double>(p.states));
+      batch_states_->Add(part_labels, size_buckets()).Observe(static_cast<double>(p.states));
+    }
+  }
   for (const std::string& failed : r.failed_backends) failovers_->Add({{"from_backend", failed}}).Increment();
   if (r.fallback_states > 0) fallback_states_->Add(by_backend).Increment(static_cast<double>(r.fallback_states));
   if (r.queue_seconds >= 0) queue_->Add(by_backend, time_buckets()).Observe(r.queue_seconds);

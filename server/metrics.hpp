@@ -41,6 +41,13 @@ struct RequestRecord {
   std::uint64_t fallback_states = 0;         // fixed-point states computed again in floating point
   std::uint64_t batch_states = 0;  // the states of its backend call, once per call (0: counted with
                                    // another request of the same coalesced call, or never computed)
+  // A request split across backends: each share, counted in states and batch sizes by its own
+  // backend (instead of `backend` and batch_states). Empty when not split.
+  struct Part {
+    std::string_view backend, mode;
+    std::uint64_t states = 0;
+  };
+  std::vector<Part> parts;
 };
 
 /// A queue's state at scrape time.
@@ -80,6 +87,7 @@ class Metrics {
   prometheus::Family<prometheus::Counter>* states_ = nullptr;
   prometheus::Family<prometheus::Counter>* failovers_ = nullptr;
   prometheus::Family<prometheus::Counter>* fallback_states_ = nullptr;
+  prometheus::Counter* split_requests_ = nullptr;
   prometheus::Family<prometheus::Histogram>* queue_ = nullptr;
   prometheus::Family<prometheus::Histogram>* compute_ = nullptr;
   prometheus::Family<prometheus::Histogram>* total_ = nullptr;

@@ -162,6 +162,82 @@ Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route
   return Status::ok();
 }
 
+std::vector<SplitPart> Scheduler::split(const ServedModel& model, const RouteQuery& query, std::uint32_t precision,
+                                        double alone_us) const {
+  std::vector<SplitPart> parts;
+  if (config_.policy != "cost" || config_.split_min_states <= 0 || !query.backend.empty() ||
+      query.n < static_cast<std::uint64_t>(config_.split_min_states) || !(alone_us > 0))
+    return parts;
+  RouteQuery q = query;
+  q.precision = precision;
+  std::shared_lock lock(mutex_);
+  struct Option {
+    const Candidate* candidate;
+    double wait_us;
+  };
+  const std::vector<Candidate> c = candidates(model, q);
+  std::vector<Option> options;
+  for (const Candidate& x : c)
+    if (x.entry != nullptr && !x.entry->latency.empty()) options.push_back({&x, x.pool->predicted_wait_us()});
+  if (options.size() < 2) return parts;
+
+  // the states option i finishes by time t: its model grows with N (nearly: a measured point may
+  // dip), so a binary search
+  const auto states_by = [&](const Option& o, double t) -> std::uint64_t {
+    const LatencyModel& m = o.candidate->entry->latency;
+    if (o.wait_us + m.predict_us(1) > t) return 0;
+    std::uint64_t lo = 1, hi = query.n;
+    while (lo < hi) {
+      const std::uint64_t mid = lo + (hi - lo + 1) / 2;
+      if (o.wait_us + m.predict_us(mid) <= t) lo = mid;
+      else hi = mid - 1;
+    }
+    return lo;
+  };
+  const auto total_by = [&](double t) {
+    std::uint64_t total = 0;
+    for (const Option& o : options) total += states_by(o, t);
+    return total;
+  };
+  // the earliest time by which the options together finish every state; alone_us suffices
+  double lo = 0, hi = alone_us;
+  if (total_by(hi) < query.n) return parts;
+  for (int i = 0; i < 60 && hi - lo > 1e-3 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (total_by(mid) >= query.n ? hi : lo) = mid;
+  }
+  std::vector<std::uint64_t> share(options.size());
+  std::uint64_t total = 0;
+  for (std::size_t i = 0; i < options.size(); ++i) total += share[i] = states_by(options[i], hi);
+  // more than n by then: the last shares give the excess back (fewer states never take longer)
+  for (std::size_t i = options.size(); i-- > 0 && total > query.n;) {
+    const std::uint64_t give = std::min(share[i], total - query.n);
+    share[i] -= give;
+    total -= give;
+  }
+  double makespan = 0;
+  std::size_t used = 0;
+  for (std::size_t i = 0; i < options.size(); ++i) {
+    if (share[i] == 0) continue;
+    ++used;
+    makespan = std::max(makespan, options[i].wait_us + options[i].candidate->entry->latency.predict_us(share[i]));
+  }
+  if (used < 2 || makespan > 0.9 * alone_us) return parts;
+  std::uint64_t first = 0;
+  for (std::size_t i = 0; i < options.size(); ++i) {
+    if (share[i] == 0) continue;
+    SplitPart p;
+    if (!backends_.route(model, options[i].candidate->state->name, precision, p.route)) return {};
+    p.first = first;
+    p.n = share[i];
+    p.wait_us = options[i].wait_us;
+    p.compute_us = options[i].candidate->entry->latency.predict_us(share[i]);
+    first += share[i];
+    parts.push_back(p);
+  }
+  return parts;
+}
+
 std::vector<Prediction> Scheduler::predictions(const ServedModel& model, const RouteQuery& query) const {
   std::shared_lock lock(mutex_);
   std::vector<Prediction> out;

@@ -44,6 +44,15 @@ struct Prediction {
   bool has_model = false;
 };
 
+/// One backend's share of a request split across backends: states [first, first + n).
+struct SplitPart {
+  Route route;
+  std::uint64_t first = 0;
+  std::uint64_t n = 0;
+  double wait_us = 0;     // predicted wait for its pool
+  double compute_us = 0;  // its latency model at n
+};
+
 class Scheduler {
  public:
   Scheduler(const BackendPool& backends, const ModelRegistry& models, SchedulerConfig config);
@@ -63,6 +72,16 @@ class Scheduler {
   /// in query.exclude.
   Status route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us,
                double* predicted_wait_us = nullptr) const;
+
+  /// The cost policy's split of a large request (config split_min_states) across the backends
+  /// that run `precision`: the shares that finish together soonest by their latency models and
+  /// queues, each a contiguous range of states, in load order. Empty (run it alone) when the
+  /// request has a hint, is smaller than split_min_states, when fewer than two backends with a
+  /// model can take it, or when the split is not predicted to finish at least 10% before
+  /// `alone_us` (the chosen backend's predicted wait plus compute time): a margin for the
+  /// models' error and the parts' own overheads.
+  std::vector<SplitPart> split(const ServedModel& model, const RouteQuery& query, std::uint32_t precision,
+                               double alone_us) const;
 
   /// Every backend's prediction for a request on `model` with automatic backend (the policy's
   /// candidates), in load order.

@@ -119,6 +119,13 @@ std::vector<std::string> ComputeResult::failovers() const {
   if (!valid()) return {};
   return {impl_->response.failovers().begin(), impl_->response.failovers().end()};
 }
+std::vector<ComputePart> ComputeResult::parts() const {
+  std::vector<ComputePart> out;
+  if (!valid()) return out;
+  for (const auto& p : impl_->response.parts())
+    out.push_back({detail::from_proto(p.backend()), p.first_state(), p.num_states(), p.compute_us()});
+  return out;
+}
 Precision ComputeResult::precision() const noexcept { return valid() ? impl_->precision : Precision::kAuto; }
 ScalarType ComputeResult::output_type() const noexcept { return valid() ? impl_->type : ScalarType::kF64; }
 std::uint32_t ComputeResult::outputs() const noexcept { return valid() ? impl_->outputs : 0; }

@@ -1,5 +1,6 @@
 #include "batch_view.hpp"
 
+#include <cstddef>
 #include <cstdio>
 #include <limits>
 #include <string>
@@ -77,6 +78,35 @@ void* output_pointer(const rbdgrad_batch& b, std::uint32_t output) noexcept {
     case RBDGRAD_OUTPUT_M: return b.m;
   }
   return nullptr;
+}
+
+rbdgrad_batch states_of(const rbdgrad_batch& b, int nv, std::uint64_t first, std::uint64_t n) noexcept {
+  const std::size_t scalar = scalar_bytes(b.precision);
+  const std::size_t vec = static_cast<std::size_t>(nv) * scalar;
+  const std::size_t mat = vec * static_cast<std::size_t>(nv);
+  const auto in = [first](const void* p, std::size_t per_state) -> const void* {
+    return p == nullptr ? nullptr : static_cast<const std::byte*>(p) + first * per_state;
+  };
+  const auto out = [first](void* p, std::size_t per_state) -> void* {
+    return p == nullptr ? nullptr : static_cast<std::byte*>(p) + first * per_state;
+  };
+  rbdgrad_batch s = b;
+  s.n = n;
+  s.q = in(b.q, vec);
+  s.qd = in(b.qd, vec);
+  s.u = in(b.u, vec);
+  s.minv = in(b.minv, mat);
+  s.fext = in(b.fext, 6 * vec);
+  s.qdd = out(b.qdd, vec);
+  s.minv_out = out(b.minv_out, mat);
+  s.dqdd_dq = out(b.dqdd_dq, mat);
+  s.dqdd_dqd = out(b.dqdd_dqd, mat);
+  s.tau = out(b.tau, vec);
+  s.dtau_dq = out(b.dtau_dq, mat);
+  s.dtau_dqd = out(b.dtau_dqd, mat);
+  s.m = out(b.m, mat);
+  s.state_status = b.state_status == nullptr ? nullptr : b.state_status + first;
+  return s;
 }
 
 Status check_request(std::uint32_t precision, std::uint32_t outputs, std::uint32_t supported_precisions,

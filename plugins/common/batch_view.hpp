@@ -46,6 +46,10 @@ const char* output_name(std::uint32_t output) noexcept;
 /// The output array of `output` (one rbdgrad_output flag) in the batch: batch.qdd, batch.minv_out, ...
 void* output_pointer(const rbdgrad_batch& batch, std::uint32_t output) noexcept;
 
+/// States [first, first + n) of `batch` (a model with `nv` joints) as a batch of their own, over
+/// the same arrays; first + n <= batch.n. The split of a request across backends runs these.
+rbdgrad_batch states_of(const rbdgrad_batch& batch, int nv, std::uint64_t first, std::uint64_t n) noexcept;
+
 /// Whether a backend supporting `supported_precisions` and `supported_outputs` can take this request:
 /// invalid_argument for a precision that is not exactly one known flag or for outputs that are 0 or
 /// hold unknown bits; unimplemented (UNSUPPORTED) for a known precision or output it lacks.

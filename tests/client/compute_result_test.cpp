@@ -70,6 +70,20 @@ TEST_F(ComputeResultTest, MetadataComesFromTheResponse) {
   const ComputeResult a = client_.compute(req);
   EXPECT_EQ(a.backend(), Backend::kCpu);
   EXPECT_EQ(a.precision(), Precision::kF64);
+  EXPECT_TRUE(a.parts().empty());
+  // a request the server split across backends lists the shares
+  req.request_id = "split";
+  const ComputeResult split = client_.compute(req);
+  const std::vector<ComputePart> parts = split.parts();
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].backend, Backend::kCpu);
+  EXPECT_EQ(parts[0].first_state, 0u);
+  EXPECT_EQ(parts[0].num_states, 1u);
+  EXPECT_EQ(parts[0].compute_us, 10u);
+  EXPECT_EQ(parts[1].backend, Backend::kCuda);
+  EXPECT_EQ(parts[1].first_state, 1u);
+  EXPECT_EQ(parts[1].num_states, 1u);
+  EXPECT_EQ(parts[1].compute_us, 11u);
 }
 
 TEST_F(ComputeResultTest, F32OutputsHaveTheirOwnViews) {

@@ -161,9 +161,10 @@ TEST(ServerConfigTest, SchedulerSection) {
   EXPECT_EQ(cfg.scheduler.policy, "cost");
   EXPECT_EQ(cfg.scheduler.calibrate, "start");
   EXPECT_EQ(cfg.scheduler.calibration_file, "");
+  EXPECT_EQ(cfg.scheduler.split_min_states, 4096);
   ASSERT_TRUE(parse_config("scheduler:\n  policy: threshold\n  small_n: 16\n  large_n: 512\n  calibrate: off\n"
                            "  calibration_file: /var/cache/rbdgrad/cal.yaml\n  calibration_sizes: [1, 8, 64]\n"
-                           "  preferred_batch_states: 64\n",
+                           "  preferred_batch_states: 64\n  split_min_states: 0\n",
                            "t", cfg));
   EXPECT_EQ(cfg.scheduler.policy, "threshold");
   EXPECT_EQ(cfg.scheduler.small_n, 16);
@@ -172,6 +173,8 @@ TEST(ServerConfigTest, SchedulerSection) {
   EXPECT_EQ(cfg.scheduler.calibration_file, "/var/cache/rbdgrad/cal.yaml");
   EXPECT_EQ(cfg.scheduler.calibration_sizes, (std::vector<int64_t>{1, 8, 64}));
   EXPECT_EQ(cfg.scheduler.preferred_batch_states, 64);
+  EXPECT_EQ(cfg.scheduler.split_min_states, 0);
+  EXPECT_NE(describe(cfg).find("split off"), std::string::npos);
   EXPECT_NE(describe(cfg).find("scheduler: policy threshold (small_n 16, large_n 512"), std::string::npos);
   const std::pair<const char*, const char*> bad[] = {
       {"scheduler:\n  policy: fastest\n", "scheduler.policy"},
@@ -182,6 +185,7 @@ TEST(ServerConfigTest, SchedulerSection) {
       {"scheduler:\n  calibration_sizes: [0]\n", "scheduler.calibration_sizes[0]"},
       {"scheduler:\n  sizes: [1]\n", "unknown key 'scheduler.sizes'"},
       {"scheduler:\n  preferred_batch_states: 0\n", "scheduler.preferred_batch_states"},
+      {"scheduler:\n  split_min_states: -1\n", "scheduler.split_min_states"},
   };
   for (const auto& [text, want] : bad) {
     ServerConfig c;

@@ -246,5 +246,88 @@ TEST(DaemonRouting, AHungBackendIsRoutedAroundAndDeadlinesHold) {
   EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
 }
 
+// A large request split across the cpu and cuda fakes (cpu 300 us + 2 us/state, cuda 3000 us +
+// 1 us/state: 8192 states take cuda 11.2 ms alone, about 7.6 ms split). Each fake numbers the
+// states of its share from 0 (output k + e / 1000), which shows where each share landed. A share
+// whose backend fails as a whole makes the whole request run again on the next best backend.
+TEST(DaemonRouting, SplitsALargeRequestAcrossBackends) {
+  DaemonOptions options = routing_options();
+  options.config.limits.max_states_per_request = 10000;
+  options.config.plugins[1].options["fail_on_marker"] = "1";  // the cpu
+  options.config.plugins[2].options["per_state_us"] = "1";    // the cuda
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  constexpr std::uint32_t kN = 8192;
+  v1::ComputeRequest req = make_request("iiwa14", kIiwaNv, kN, 7, "big", {v1::OUTPUT_DQDD_DQ});
+  req.set_backend(v1::BACKEND_AUTO);
+  v1::ComputeResponse resp;
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+  }
+  ASSERT_EQ(resp.parts_size(), 2);
+  const v1::BatchPart& cpu = resp.parts(0);
+  const v1::BatchPart& cuda = resp.parts(1);
+  EXPECT_EQ(cpu.backend(), v1::BACKEND_CPU);
+  EXPECT_EQ(cuda.backend(), v1::BACKEND_CUDA);
+  EXPECT_EQ(cpu.first_state(), 0u);
+  EXPECT_EQ(cuda.first_state(), cpu.num_states());
+  EXPECT_EQ(cpu.num_states() + cuda.num_states(), kN);
+  EXPECT_GT(cpu.num_states(), 2000u);  // 3630 by the exact sleeps
+  EXPECT_GT(cuda.num_states(), 2000u);
+  EXPECT_GE(cpu.compute_us(), 300u + 2u * cpu.num_states());
+  EXPECT_GE(cuda.compute_us(), 3000u + cuda.num_states());
+  EXPECT_EQ(resp.backend(), cpu.num_states() > cuda.num_states() ? v1::BACKEND_CPU : v1::BACKEND_CUDA);
+  EXPECT_EQ(resp.timings().compute_us(), std::max(cpu.compute_us(), cuda.compute_us()));
+  EXPECT_EQ(resp.num_states(), kN);
+  const std::vector<double> d = values_of(resp.dqdd_dq());
+  ASSERT_EQ(d.size(), std::size_t{kN} * kIiwaNv * kIiwaNv);
+  const auto at = [&](std::size_t k, std::size_t e) { return d[k * kIiwaNv * kIiwaNv + e]; };
+  EXPECT_EQ(at(0, 0), 0.0);
+  EXPECT_EQ(at(cpu.num_states() - 1, 5), (cpu.num_states() - 1) + 0.005);
+  EXPECT_EQ(at(cpu.num_states(), 5), 0.005) << "the cuda share starts at its own state 0";
+  EXPECT_EQ(at(kN - 1, 48), (cuda.num_states() - 1) + 0.048);
+  const std::string text = daemon->metrics().text();
+  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_split_requests_total 1"));
+  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_states_total{backend=\"cpu\",mode=\"none\"} " +
+                                         std::to_string(cpu.num_states())));
+
+  // the cpu's share fails as a whole ("device lost"): the whole request again on cuda
+  set_value(req.mutable_q(), 0, -999.0);
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+  }
+  EXPECT_EQ(resp.parts_size(), 0);
+  EXPECT_EQ(resp.backend(), v1::BACKEND_CUDA);
+  ASSERT_EQ(resp.failovers_size(), 1);
+  EXPECT_EQ(resp.failovers(0), "cpu: device lost");
+  const std::vector<double> again = values_of(resp.dqdd_dq());
+  ASSERT_EQ(again.size(), d.size());
+  EXPECT_EQ(again[(kN - 1) * kIiwaNv * kIiwaNv], kN - 1.0) << "one backend numbered every state";
+
+  // a state of the cuda share fails (numbered within the share): the whole request again on
+  // cuda names it within the request
+  set_value(req.mutable_q(), 0, 0.5);
+  const std::uint32_t bad = cpu.num_states() + 3;
+  set_value(req.mutable_q(), std::size_t{bad} * kIiwaNv, -997.0);
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = stub->Compute(&ctx, req, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE) << s.error_message();
+    EXPECT_THAT(s.error_message(), ::testing::HasSubstr("state " + std::to_string(bad) + ": singular mass matrix"));
+  }
+
+  // under split_min_states (4096 by default): one backend
+  v1::ComputeRequest small = make_request("iiwa14", kIiwaNv, 4000, 8, "smaller", {v1::OUTPUT_DQDD_DQ});
+  small.set_backend(v1::BACKEND_AUTO);
+  grpc::ClientContext ctx;
+  ASSERT_TRUE(stub->Compute(&ctx, small, &resp).ok());
+  EXPECT_EQ(resp.parts_size(), 0);
+}
+
 }  // namespace
 }  // namespace rbdgrad::server

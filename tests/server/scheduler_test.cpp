@@ -26,13 +26,13 @@ struct Fixture {
   ModelRegistry models;
   std::unique_ptr<BackendPool> backends;
 
-  explicit Fixture(const std::string& cpu_fixed_us = "300") {
+  explicit Fixture(const std::string& cpu_fixed_us = "300", const std::string& cuda_per_state_us = "0.1") {
     EXPECT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt}}, models));
     BackendPool::Options o;
     o.cpu_plugin_path = "";  // the fakes only
     o.plugins = {{FAKE_TIMED_FPGA_PATH, {{"fixed_us", "10"}, {"per_state_us", "10"}}},
                  {FAKE_TIMED_CPU_PATH, {{"fixed_us", cpu_fixed_us}, {"per_state_us", "2"}}},
-                 {FAKE_TIMED_CUDA_PATH, {{"fixed_us", "3000"}, {"per_state_us", "0.1"}}}};
+                 {FAKE_TIMED_CUDA_PATH, {{"fixed_us", "3000"}, {"per_state_us", cuda_per_state_us}}}};
     backends = BackendPool::create(o, models);
     EXPECT_EQ(backends->ready_count(), 3u);
   }
@@ -205,6 +205,52 @@ TEST(Scheduler, QueuedWorkCountsInTheCost) {
   for (int i = 0; i < 200 && cpu->load().pending_us > 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_EQ(cpu->load().pending_us, 0);
   EXPECT_EQ(route(s, f.iiwa(), 200), "cpu");
+}
+
+// cpu 300 us + 2 us/state, cuda 3000 us + 1 us/state: 8192 states take cuda 11.2 ms alone, and
+// about 7.6 ms split (cpu 3630, cuda 4562 states, finishing together).
+TEST(Scheduler, SplitsALargeRequestWhenTheModelsPredictAGain) {
+  Fixture f("300", "1");
+  SchedulerConfig c = config();
+  c.split_min_states = 4096;
+  Scheduler s(*f.backends, f.models, c);
+  calibrate(s);
+  const RouteQuery query{"", RBDGRAD_PRECISION_F64, RBDGRAD_OUTPUT_DQDD_DQ, 8192};
+  Route alone;
+  double compute_us = 0, wait_us = 0;
+  ASSERT_TRUE(s.route(f.iiwa(), query, alone, compute_us, &wait_us));
+  EXPECT_EQ(alone.backend->name, "cuda");
+  const std::vector<SplitPart> parts = s.split(f.iiwa(), query, alone.precision, wait_us + compute_us);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].route.backend->name, "cpu");  // load order: fpga (not f64), cpu, cuda
+  EXPECT_EQ(parts[1].route.backend->name, "cuda");
+  EXPECT_EQ(parts[0].route.precision, RBDGRAD_PRECISION_F64);
+  EXPECT_EQ(parts[1].route.precision, RBDGRAD_PRECISION_F64);
+  EXPECT_EQ(parts[0].first, 0u);
+  EXPECT_EQ(parts[1].first, parts[0].n);
+  EXPECT_EQ(parts[0].n + parts[1].n, 8192u);
+  EXPECT_GT(parts[0].n, 3000u);  // 3630 with exact sleeps
+  EXPECT_LT(parts[0].n, 4200u);
+  for (const SplitPart& p : parts) {
+    EXPECT_LE(p.wait_us + p.compute_us, 0.9 * (wait_us + compute_us));
+    EXPECT_EQ(p.route.pool, f.backends->pool(p.route.backend->name, f.iiwa()));
+  }
+  // not split: below split_min_states, pinned, fixed point (the fpga alone has it), a small
+  // gain (cuda at 0.1 us/state leaves the cpu little to add), or by the threshold policy
+  EXPECT_TRUE(s.split(f.iiwa(), {"", RBDGRAD_PRECISION_F64, RBDGRAD_OUTPUT_DQDD_DQ, 4095}, alone.precision, 1e9).empty());
+  EXPECT_TRUE(s.split(f.iiwa(), {"cuda", RBDGRAD_PRECISION_F64, RBDGRAD_OUTPUT_DQDD_DQ, 8192}, alone.precision,
+                      wait_us + compute_us)
+                  .empty());
+  EXPECT_TRUE(s.split(f.iiwa(), {"", 0, RBDGRAD_OUTPUT_DQDD_DQ, 8192}, RBDGRAD_PRECISION_FIXED_Q16_16, 1e9).empty());
+  Fixture fast_cuda;
+  Scheduler s2(*fast_cuda.backends, fast_cuda.models, c);
+  calibrate(s2);
+  ASSERT_TRUE(s2.route(fast_cuda.iiwa(), query, alone, compute_us, &wait_us));
+  EXPECT_TRUE(s2.split(fast_cuda.iiwa(), query, alone.precision, wait_us + compute_us).empty());
+  c.policy = "threshold";
+  Scheduler s3(*f.backends, f.models, c);
+  calibrate(s3);
+  EXPECT_TRUE(s3.split(f.iiwa(), query, RBDGRAD_PRECISION_F64, 1e9).empty());
 }
 
 TEST(Scheduler, WithoutModelsTheCpuTakesEverything) {

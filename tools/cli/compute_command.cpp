@@ -289,6 +289,15 @@ int run_compute_command(int argc, const char* const* argv, int first) {
              << " in " << precision_name(fell_back->fallback_precision()) << "\n";
     for (const ComputeResult& each : computed.results)
       for (const std::string& f : each.failovers()) report << "failover: " << f << "\n";
+    for (const ComputeResult& each : computed.results) {
+      const std::vector<ComputePart> parts = each.parts();
+      if (parts.empty()) continue;
+      report << "split across backends:";
+      for (const ComputePart& p : parts)
+        report << " " << backend_name(p.backend) << " states " << p.first_state << "-"
+               << p.first_state + p.num_states - 1 << " (" << p.compute_us << " us)";
+      report << "\n";
+    }
     report << std::fixed << std::setprecision(1);
     report << "server timings" << (requests_ok > 1 ? " (mean per request)" : "") << ": queue "
            << per_request(static_cast<double>(computed.sum.queue_us)) << " us, compute "

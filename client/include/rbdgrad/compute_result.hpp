@@ -27,6 +27,15 @@ struct ComputeTimings {
                                  // server and decoding; for async calls, up to the callback)
 };
 
+// One backend's share of a request the server split across backends: states
+// [first_state, first_state + num_states).
+struct ComputePart {
+  Backend backend = Backend::kAuto;
+  std::uint32_t first_state = 0;
+  std::uint32_t num_states = 0;
+  std::uint64_t compute_us = 0;  // server: in that backend
+};
+
 namespace detail {
 struct ResultAccess;  // the library's own access to the response (not part of the API)
 }
@@ -64,6 +73,10 @@ class RBDGRAD_CLIENT_EXPORT ComputeResult {
   // ("cuda: device lost"), in order; empty when none did. Only requests without a backend hint
   // move on to another backend.
   std::vector<std::string> failovers() const;
+  // A large request the server split across backends (its scheduler.split_min_states): each
+  // backend's share, in order; backend() is then the one with the most states. Empty when one
+  // backend computed every state.
+  std::vector<ComputePart> parts() const;
 
   // Views. The f64 forms need output_type() == kF64, the _f32 forms kF32. They throw
   // std::invalid_argument when the output is absent (not requested) or of the other type, and

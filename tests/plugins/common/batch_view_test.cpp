@@ -37,6 +37,31 @@ TEST(BatchView, MapsStateKOfEachInput) {
   EXPECT_EQ(in.minv, nullptr);
 }
 
+// states_of: every array starts at state `first`, in the batch's precision; absent ones stay absent.
+TEST(StatesOf, PointsEveryArrayAtTheFirstStateOfThePart) {
+  BatchArrays<float> a(5, kNv);
+  const rbdgrad_batch b = a.batch(RBDGRAD_PRECISION_F32, RBDGRAD_INPUT_TAU, kAllOutputs, true, false);
+  const rbdgrad_batch part = states_of(b, kNv, 2, 3);
+  EXPECT_EQ(part.n, 3u);
+  EXPECT_EQ(part.precision, b.precision);
+  EXPECT_EQ(part.outputs, b.outputs);
+  EXPECT_EQ(part.q, a.q.data() + 2 * kNv);
+  EXPECT_EQ(part.qd, a.qd.data() + 2 * kNv);
+  EXPECT_EQ(part.u, a.u.data() + 2 * kNv);
+  EXPECT_EQ(part.minv, a.minv.data() + 2 * kNv * kNv);
+  EXPECT_EQ(part.fext, nullptr);
+  for (std::uint32_t flag = 1; flag <= RBDGRAD_OUTPUT_M; flag <<= 1) {
+    const std::size_t per_state = (flag & kMatrixOutputs) ? kNv * kNv : kNv;
+    EXPECT_EQ(output_pointer(part, flag), a.out(flag).data() + 2 * per_state) << output_name(flag);
+  }
+  EXPECT_EQ(part.state_status, a.state_status.data() + 2);
+  BatchArrays<double> d(4, kNv);
+  const rbdgrad_batch with_fext = states_of(d.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_QDD, RBDGRAD_OUTPUT_TAU, false, true), kNv, 3, 1);
+  EXPECT_EQ(with_fext.fext, d.fext.data() + 3 * 6 * kNv);
+  EXPECT_EQ(with_fext.minv, nullptr);
+  EXPECT_EQ(with_fext.tau, d.out(RBDGRAD_OUTPUT_TAU).data() + 3 * kNv);
+}
+
 TEST(BatchView, ReadsTheSuppliedMinvRowMajorEvenWhenUnsymmetric) {
   BatchArrays<float> a(2, kNv);
   for (std::size_t i = 0; i < a.minv.size(); ++i) a.minv[i] = static_cast<float>(i);

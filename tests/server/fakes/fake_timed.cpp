@@ -7,7 +7,8 @@
 // With the option fail_on_marker=1, a batch whose first q is -999 fails as a whole,
 // RBDGRAD_ERROR_UNAVAILABLE "device lost" (a lost device, for the failover tests). With the option
 // hang_us=T, a batch whose first q is -998 sleeps T microseconds before it computes (a hung
-// device, bounded so that the daemon can stop).
+// device, bounded so that the daemon can stop). Any state whose first q is -997 fails alone,
+// RBDGRAD_ERROR_NUMERICAL "state K: singular mass matrix" (K numbered within the batch).
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -121,8 +122,18 @@ rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
         for (uint64_t e = 0; e < per_state; ++e) out[k * per_state + e] = static_cast<int32_t>(k * 65536 + e);
     }
   }
-  if (batch->state_status != nullptr)
-    for (uint64_t k = 0; k < batch->n; ++k) batch->state_status[k] = RBDGRAD_OK;
+  const size_t stride = instance->nv;
+  for (uint64_t k = 0; k < batch->n; ++k) {
+    rbdgrad_batch one = *batch;
+    const size_t scalar = batch->precision == RBDGRAD_PRECISION_F64 ? sizeof(double) : sizeof(float);
+    one.q = static_cast<const char*>(batch->q) + k * stride * scalar;
+    if (!has_marker(&one, -997)) {
+      if (batch->state_status != nullptr) batch->state_status[k] = RBDGRAD_OK;
+      continue;
+    }
+    if (batch->state_status != nullptr) batch->state_status[k] = RBDGRAD_ERROR_NUMERICAL;
+    return make_error(RBDGRAD_ERROR_NUMERICAL, "state " + std::to_string(k) + ": singular mass matrix");
+  }
   return nullptr;
 }
 
