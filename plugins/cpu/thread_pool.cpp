@@ -1,5 +1,6 @@
 #include "thread_pool.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 namespace rbdgrad::plugin {
@@ -66,10 +67,13 @@ void ThreadPool::run_erased(std::size_t tasks, TaskFn fn, void* ctx) {
     tasks_ = tasks;
     next_task_.store(0, std::memory_order_relaxed);
     error_ = nullptr;
-    // one task needs no hand-off: the pool threads stay asleep
-    wake = tasks > 1 && !threads_.empty();
+    // only as many pool threads as there are tasks beyond the caller's take part (the caller
+    // drains too): a small batch does not wait for every thread of a large pool to check in.
+    // One task needs no hand-off: the pool threads stay asleep.
+    participants_ = std::min(tasks - 1, threads_.size());
+    wake = participants_ > 0;
     if (wake) {
-      busy_ = threads_.size();
+      busy_ = participants_;
       ++generation_;
     }
   }
@@ -97,6 +101,8 @@ void ThreadPool::worker_loop(std::size_t worker) {
       start_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
+      // not needed this time: back to waiting, uncounted (busy_ counts workers 1..participants_)
+      if (worker > participants_) continue;
     }
     drain(worker);
     std::lock_guard lock(mutex_);

@@ -6,7 +6,8 @@
 // spin (~20 us, for batches back to back in one process) followed by `idle_poll` of polling that
 // yields the core to any other runnable thread: that phase bridges a client's round trip through
 // the daemon (a few hundred us), costing a core only while nothing else wants it.
-// run() hands out tasks to the workers and the calling thread and blocks until all are done; it
+// run() hands out tasks to the calling thread and as many workers as the tasks need (a small batch
+// does not wait for a large pool to check in) and blocks until all are done; it
 // allocates nothing (the task is a function pointer plus a context pointer).
 #pragma once
 
@@ -80,6 +81,7 @@ class ThreadPool {
   TaskFn fn_ = nullptr;
   void* ctx_ = nullptr;
   std::size_t tasks_ = 0;
+  std::size_t participants_ = 0;  // pool threads 1..participants_ work on the current generation
   std::atomic<std::size_t> next_task_{0};
   std::exception_ptr error_;  // first exception of the current run
 };

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
@@ -40,6 +41,26 @@ TEST(ThreadPool, EveryTaskRunsExactlyOnceForAnyTaskCount) {
     // none, fewer tasks than workers, as many, many more
     for (std::size_t tasks : {std::size_t{0}, std::size_t{1}, threads - 1, threads, threads + 1, 10 * threads + 3, std::size_t{1000}})
       check_run(pool, tasks);
+  }
+}
+
+// A run of fewer tasks than workers takes the caller and tasks - 1 pool threads only (worker
+// indices below the task count): it never waits for the others. Runs of every size alternate so
+// that threads left out of one run take part in the next.
+TEST(ThreadPool, ASmallRunUsesOnlyAsManyWorkersAsTasks) {
+  ThreadPool pool(8);
+  for (int round = 0; round < 300; ++round) {
+    const std::size_t tasks = 1 + static_cast<std::size_t>(round * 7 % 12);
+    std::atomic<std::size_t> highest{0};
+    std::vector<std::atomic<int>> runs(tasks);
+    pool.run(tasks, [&](std::size_t task, std::size_t worker) {
+      runs[task].fetch_add(1);
+      for (std::size_t h = highest.load(); worker > h && !highest.compare_exchange_weak(h, worker);) {
+      }
+      if (round % 5 == 0) std::this_thread::sleep_for(std::chrono::microseconds(50));
+    });
+    for (std::size_t t = 0; t < tasks; ++t) ASSERT_EQ(runs[t].load(), 1) << "round " << round << ", task " << t;
+    EXPECT_LT(highest.load(), std::min(tasks, pool.size())) << "round " << round << ": " << tasks << " tasks";
   }
 }
 
