@@ -91,6 +91,17 @@ TEST_F(ResponseCheckTest, RejectsNonFiniteAndWrongValuesNamingStateAndElement) {
   const Status s = check_compute_response(req, 7, r, &reference, 1e-9);
   EXPECT_NE(s.message().find("'dqdd_dqd' state 3 element 48"), std::string::npos) << s.message();
   EXPECT_TRUE(check_compute_response(req, 7, r, &reference, 1e-5).is_ok());
+
+  // relative to the state's block: a near-zero element of a matrix with large entries may differ
+  // by the matrix's rounding, an element of a block of small entries may not
+  v1::ComputeResponse large = well_formed(req, 7);
+  put(*large.mutable_dqdd_dq(), 1 * 49 + 7, 2000.0);
+  r = large;
+  put(*r.mutable_dqdd_dq(), 1 * 49 + 3, 0.5 + 1e-9);  // 5e-13 of the block's 2000
+  EXPECT_TRUE(check_compute_response(req, 7, r, &large, 1e-9).is_ok());
+  put(*r.mutable_dqdd_dq(), 2 * 49 + 3, 0.5 + 1e-6);  // state 2 has no large entry
+  EXPECT_NE(check_compute_response(req, 7, r, &large, 1e-9).message().find("'dqdd_dq' state 2 element 3"),
+            std::string::npos);
 }
 
 TEST(EchoSizing, EchoMovesTheDynamicsCallsBytes) {
