@@ -16,6 +16,7 @@ packages=(
   libbenchmark-dev               # microbenchmarks (bench)
   libxrt-dev                     # FPGA backend: XRT host API (plugins/fpga)
   python3                        # CLI tests compare result files (stdlib only)
+  python3-matplotlib             # the accuracy benchmark's plots (bench/accuracy/plot_accuracy.py)
 )
 
 missing=()
