@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
@@ -235,18 +236,19 @@ TEST(Scheduler, SplitsALargeRequestWhenTheModelsPredictAGain) {
     EXPECT_LE(p.wait_us + p.compute_us, 0.9 * (wait_us + compute_us));
     EXPECT_EQ(p.route.pool, f.backends->pool(p.route.backend->name, f.iiwa()));
   }
-  // not split: below split_min_states, pinned, fixed point (the fpga alone has it), a small
-  // gain (cuda at 0.1 us/state leaves the cpu little to add), or by the threshold policy
+  // the 10% rule: the same shares are refused when they would finish less than 10% before the
+  // request alone (deterministic: the split depends only on the models and the idle queues)
+  double makespan = 0;
+  for (const SplitPart& p : parts) makespan = std::max(makespan, p.wait_us + p.compute_us);
+  EXPECT_TRUE(s.split(f.iiwa(), query, alone.precision, 0.99 * makespan / 0.9).empty());
+  EXPECT_EQ(s.split(f.iiwa(), query, alone.precision, 1.01 * makespan / 0.9).size(), 2u);
+  // not split: below split_min_states, pinned, fixed point (the fpga alone has it), or by the
+  // threshold policy
   EXPECT_TRUE(s.split(f.iiwa(), {"", RBDGRAD_PRECISION_F64, RBDGRAD_OUTPUT_DQDD_DQ, 4095}, alone.precision, 1e9).empty());
   EXPECT_TRUE(s.split(f.iiwa(), {"cuda", RBDGRAD_PRECISION_F64, RBDGRAD_OUTPUT_DQDD_DQ, 8192}, alone.precision,
                       wait_us + compute_us)
                   .empty());
   EXPECT_TRUE(s.split(f.iiwa(), {"", 0, RBDGRAD_OUTPUT_DQDD_DQ, 8192}, RBDGRAD_PRECISION_FIXED_Q16_16, 1e9).empty());
-  Fixture fast_cuda;
-  Scheduler s2(*fast_cuda.backends, fast_cuda.models, c);
-  calibrate(s2);
-  ASSERT_TRUE(s2.route(fast_cuda.iiwa(), query, alone, compute_us, &wait_us));
-  EXPECT_TRUE(s2.split(fast_cuda.iiwa(), query, alone.precision, wait_us + compute_us).empty());
   c.policy = "threshold";
   Scheduler s3(*f.backends, f.models, c);
   calibrate(s3);
