@@ -17,5 +17,6 @@ WorkspaceTpl<S>::WorkspaceTpl(const ModelTpl<S>& model) : nv(model.nv) {
 
 #define RBDGRAD_INSTANTIATE(S) template struct WorkspaceTpl<S>;
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

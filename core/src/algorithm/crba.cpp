@@ -18,5 +18,6 @@ Status crba(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<
 #define RBDGRAD_INSTANTIATE(S) \
   template Status crba<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

@@ -53,5 +53,6 @@ Status evaluate_outputs(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
                                       std::uint32_t, std::type_identity_t<const S*>,                       \
                                       std::type_identity_t<const MatrixX<S>*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

@@ -66,5 +66,6 @@ Status fd_derivatives(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Const
                                     InputKind, std::type_identity_t<const S*>, \
                                     std::type_identity_t<const MatrixX<S>*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

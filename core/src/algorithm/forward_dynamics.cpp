@@ -22,5 +22,6 @@ Status forward_dynamics(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
                                       const ConstVectorRef<S>&, const ConstVectorRef<S>&, \
                                       std::type_identity_t<const S*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

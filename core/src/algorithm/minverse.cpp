@@ -126,5 +126,6 @@ Status minverse(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVector
   template void solve_with_factors<S>(const ModelTpl<S>&, const WorkspaceTpl<S>&, VectorX<S>&);            \
   template Status minverse<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad

@@ -20,5 +20,6 @@ Status rnea(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<
   template Status rnea<S>(const ModelTpl<S>&, WorkspaceTpl<S>&, const ConstVectorRef<S>&,        \
                           const ConstVectorRef<S>&, const ConstVectorRef<S>&, std::type_identity_t<const S*>);
 RBDGRAD_FOR_EACH_SCALAR(RBDGRAD_INSTANTIATE)
+RBDGRAD_FOR_EACH_REFERENCE_SCALAR(RBDGRAD_INSTANTIATE)
 
 }  // namespace rbdgrad
