@@ -21,7 +21,9 @@ run() {
   shift 2
   mkdir -p "$out"
   {
-    echo "- date: $(date -u +%Y-%m-%d), commit \`$(git -C "$root" rev-parse --short HEAD)\`$(git -C "$root" diff --quiet HEAD -- . 2>/dev/null || echo ' (with uncommitted changes)')"
+    # RBDGRAD_COMMIT names the commit where the tree is a copy without git (the GPU machine's)
+    local commit=${RBDGRAD_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)}
+    echo "- date: $(date -u +%Y-%m-%d), commit \`$commit\`"
     echo "- CPU: $(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"
     if command -v nvidia-smi > /dev/null && nvidia-smi -L > /dev/null 2>&1; then
       echo "- GPU: $(nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | head -1)"
