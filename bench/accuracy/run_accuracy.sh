@@ -7,7 +7,7 @@
 #       Markdown and plots into OUT_DIR, with machine.md saying where, when and at which commit.
 #   bench/accuracy/run_accuracy.sh report DOC RUN_DIR...
 #       docs/benchmarks/accuracy.md (DOC) from one or more run directories (e.g. the development
-#       machine's and the GPU machine's), the plots copied next to it into DOC's folder/accuracy/.
+#       machine's and the GPU machine's), with their plots drawn into DOC's folder/accuracy/.
 #
 # The plots need Debian's python3-matplotlib (scripts/install-deps.sh installs it) and run with
 # /usr/bin/python3, whatever python3 comes first on PATH.
@@ -33,15 +33,9 @@ run() {
   } > "$out/machine.md"
   echo "run_accuracy: accuracy_bench" >&2
   "$build/bench/accuracy/accuracy_bench" --csv "$out/accuracy.csv" --markdown "$out/accuracy.md" "$@"
-  for n in 16 1024; do
-    if grep -q ",$n,[^,]" "$out/accuracy.csv"; then
-      "$py" "$here/plot_accuracy.py" "$out/accuracy.csv" "$n" "$out/accuracy_n$n.png"
-    fi
-  done
   if [[ -x "$build/bench/stability/stability_sweep" ]]; then
     echo "run_accuracy: stability_sweep" >&2
     "$build/bench/stability/stability_sweep" --csv "$out/stability.csv" --markdown "$out/stability.md"
-    "$py" "$root/bench/stability/plot_stability.py" "$out/stability.csv" "$out/stability.png"
   fi
   if [[ -x "$root/bench/trajopt/run_trajopt.sh" ]]; then
     echo "run_accuracy: trajectory optimization" >&2
@@ -66,6 +60,15 @@ report() {
     for dir in "$@"; do
       local name
       name=$(basename "$dir")
+      # the plots, here rather than where the data was measured (a GPU machine may lack matplotlib)
+      for n in 16 1024; do
+        if grep -q "^[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,$n," "$dir/accuracy.csv"; then
+          "$py" "$here/plot_accuracy.py" "$dir/accuracy.csv" "$n" "$dir/accuracy_n$n.png"
+        fi
+      done
+      if [[ -f "$dir/stability.csv" ]]; then
+        "$py" "$root/bench/stability/plot_stability.py" "$dir/stability.csv" "$dir/stability.png"
+      fi
       echo
       echo "## Run \`$name\`"
       echo
