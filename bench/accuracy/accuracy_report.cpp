@@ -52,7 +52,7 @@ void write_markdown(std::ostream& os, const std::vector<AccuracyRow>& rows, cons
   for (const AccuracyRow& r : rows) {
     if (r.robot != robot) {
       robot = r.robot;
-      os << "\n### " << r.robot << " (nv = " << r.nv << ")\n\n"
+      os << "\n#### " << r.robot << " (nv = " << r.nv << ")\n\n"
          << "Time per state (µs) at each N; relative Frobenius error, median / worst over the states compared "
             "(flagged states are left out and counted: of the Pinocchio states, of the random ones).\n\n| backend | precision | timing |";
       for (std::uint64_t n : sizes) os << " N = " << n << " |";

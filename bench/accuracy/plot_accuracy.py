@@ -74,7 +74,7 @@ def main():
     fig.text(0.01, 0.005, "* time from the FPGA plugin's cycle model (kernel: other formats of the same pipeline, "
              "Q16.16's cycle count); fpga = the kernel's C simulation through the plugin", fontsize=7)
     fig.tight_layout(rect=(0, 0.03, 1, 1))
-    fig.savefig(sys.argv[3], dpi=110)
+    fig.savefig(sys.argv[3], dpi=80)
 
 
 if __name__ == "__main__":

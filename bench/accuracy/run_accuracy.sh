@@ -57,6 +57,15 @@ report() {
     echo "the CPU's f64 result; how the error grows under stress; what it means for a trajectory optimizer."
     echo "Errors are relative Frobenius errors per state and matrix; a state a backend flags (out of the"
     echo "fixed-point range, singular) is left out of the errors and counted."
+    # what the figures mean, written by people next to the generated report
+    local findings
+    findings="$(dirname "$doc")/accuracy-findings.md"
+    if [[ -f "$findings" ]]; then
+      echo
+      echo "## What the figures show"
+      echo
+      cat "$findings"
+    fi
     for dir in "$@"; do
       local name
       name=$(basename "$dir")
@@ -84,8 +93,7 @@ report() {
       done
       if [[ -f "$dir/stability.md" ]]; then
         echo
-        echo "### Numerical stability"
-        cat "$dir/stability.md"
+        cat "$dir/stability.md"  # its own "###" heading
       fi
       if [[ -f "$dir/trajopt/trajopt.md" ]]; then
         echo

@@ -87,7 +87,7 @@ def main(csv_path, png_path, robot="all"):
         ax.axis("off")
     axes.flat[0].legend(fontsize=7, ncol=3)
     fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    fig.savefig(png_path, dpi=80)
 
 
 if __name__ == "__main__":
