@@ -148,9 +148,10 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   return Status::ok();
 }
 
-void ComputeCall::run(PluginInstance& instance) noexcept {
+template <class Step>
+void ComputeCall::conclude(Step&& step) noexcept {
   try {
-    if (!run_stage(instance)) return;  // the fallback run completes the call
+    if (!step()) return;  // it goes on elsewhere, which concludes it
   } catch (const std::exception& e) {
     status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
   } catch (...) {
@@ -158,6 +159,10 @@ void ComputeCall::run(PluginInstance& instance) noexcept {
   }
   record();
   complete();
+}
+
+void ComputeCall::run(PluginInstance& instance) noexcept {
+  conclude([&] { return run_stage(instance); });
 }
 
 void ComputeCall::submit() {
@@ -203,7 +208,7 @@ void ComputeCall::PartJob::run(PluginInstance& instance) noexcept {
 
 void ComputeCall::part_done() noexcept {
   if (parts_left_.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
-  try {
+  conclude([&] {
     // queue_us until the first share started; compute_us the longest share
     started_ = parts_.front().started;
     const PartJob* failed = nullptr;
@@ -212,18 +217,10 @@ void ComputeCall::part_done() noexcept {
       compute_time_ = std::max(compute_time_, p.compute);
       if (!p.status && failed == nullptr) failed = &p;
     }
-    if (failed == nullptr) {
-      finish();
-    } else if (rerun_unsplit(*failed)) {
-      return;  // the usual path completes it
-    }
-  } catch (const std::exception& e) {
-    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
-  } catch (...) {
-    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
-  }
-  record();
-  complete();
+    if (failed != nullptr) return !rerun_unsplit(*failed);  // rerun: the usual path concludes it
+    finish();
+    return true;
+  });
 }
 
 bool ComputeCall::rerun_unsplit(const PartJob& failed) {
@@ -251,7 +248,7 @@ bool ComputeCall::rerun_unsplit(const PartJob& failed) {
 void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch& group, std::uint64_t first,
                                   Clock::time_point started, Clock::duration compute, std::size_t group_requests,
                                   std::uint64_t group_states) noexcept {
-  try {
+  conclude([&] {
     // the group call marks every state failed when it failed as a whole (GroupJob::run)
     const rbdgrad_batch& own = batch_.batch();
     bool all_ok = group.state_status != nullptr;
@@ -259,8 +256,7 @@ void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch&
     if (!all_ok) {
       // computed again alone: the usual path, with its own messages, failover and fallback
       batch_states_ = own.n;
-      run(instance);
-      return;
+      return run_stage(instance);
     }
     started_ = started;
     compute_time_ = compute;
@@ -278,13 +274,8 @@ void ComputeCall::finish_in_group(PluginInstance& instance, const rbdgrad_batch&
     if (own.state_status != nullptr)
       std::memcpy(own.state_status, group.state_status + first, own.n * sizeof(std::int32_t));
     finish();
-  } catch (const std::exception& e) {
-    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error: " + e.what());
-  } catch (...) {
-    status_ = Status(StatusCode::kInternal, prefix_ + "unexpected error");
-  }
-  record();
-  complete();
+    return true;
+  });
 }
 
 void ComputeCall::record() const {

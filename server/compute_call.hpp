@@ -160,6 +160,10 @@ class ComputeCall : public PoolJob {
   };
 
   void run(PluginInstance& instance) noexcept final;
+  // Runs `step` (true: the call is answered; false: it goes on elsewhere, which concludes it),
+  // then records and completes an answered call; what `step` throws is the call's internal error.
+  template <class Step>
+  void conclude(Step&& step) noexcept;
   // A share has run: the last one finishes the call, or runs it again unsplit when one failed.
   void part_done() noexcept;
   // After share `failed` failed: the whole request again, alone (true), or the failure stands.
