@@ -28,6 +28,8 @@ Status run_format(const Model& model, const StateSet& states, Gradients& out) {
   out.dqdd_dq.assign(states.n * nv * nv, 0.0);
   out.dqdd_dqd.assign(states.n * nv * nv, 0.0);
   out.state_status.assign(states.n, 0);
+  out.qdd.assign(states.n * nv, 0.0);
+  out.minv.assign(states.n * nv * nv, 0.0);
   T q[kMaxNv], s[kMaxNv], c[kMaxNv], qd[kMaxNv], u[kMaxNv], minv[kMaxNv * kMaxNv];
   T qdd[kMaxNv], dq[kMaxNv * kMaxNv], dqd[kMaxNv * kMaxNv];
   Eigen::VectorXd qk(n);
@@ -58,7 +60,9 @@ Status run_format(const Model& model, const StateSet& states, Gradients& out) {
     for (std::size_t e = 0; e < nv * nv; ++e) {
       out.dqdd_dq[k * nv * nv + e] = static_cast<double>(dq[e]);
       out.dqdd_dqd[k * nv * nv + e] = static_cast<double>(dqd[e]);
+      out.minv[k * nv * nv + e] = static_cast<double>(minv[e]);
     }
+    for (std::size_t i = 0; i < nv; ++i) out.qdd[k * nv + i] = static_cast<double>(qdd[i]);
   }
   return Status::ok();
 }

@@ -24,7 +24,9 @@ struct FixedFormat {
 /// The formats compiled in: Q20.12, Q16.16 (the bitstream's), Q12.20 (32 bits each), Q24.24 (48).
 const std::vector<FixedFormat>& fixed_formats();
 
-/// Runs every state of `states` through the kernel in `format` (one of fixed_formats()).
+/// Runs every state of `states` through the kernel in `format` (one of fixed_formats()): fills
+/// out's gradients, q̈ and the M⁻¹ the kernel was given (each as rounded into the format, zero for
+/// a flagged state) and state_status (1 = overflowed, or M⁻¹ failed). Also used by trajopt_bench.
 /// Errors: invalid_argument for a format not compiled in or a model above the kernel's 32 joints.
 Status run_fixed_format(const FixedFormat& format, const Model& model, const StateSet& states, Gradients& out);
 

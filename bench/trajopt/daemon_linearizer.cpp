@@ -7,25 +7,6 @@
 
 namespace rbdgrad::trajopt {
 
-namespace {
-
-double relative_error(const Eigen::MatrixXd& x, const Eigen::MatrixXd& ref) {
-  const double denom = ref.norm();
-  return denom > 0 ? (x - ref).norm() / denom : (x - ref).norm();
-}
-
-// Of the state's whole Jacobian [∂q̈/∂q ∂q̈/∂q̇], not of each half: at rest ∂q̈/∂q̇ is zero up to
-// rounding (it is linear in q̇), and the error of a near-zero matrix relative to itself says nothing.
-double jacobian_error(const Eigen::MatrixXd& dq, const Eigen::MatrixXd& dqd, const Eigen::MatrixXd& ref_dq,
-                      const Eigen::MatrixXd& ref_dqd) {
-  Eigen::MatrixXd x(dq.rows(), dq.cols() + dqd.cols()), ref(x.rows(), x.cols());
-  x << dq, dqd;
-  ref << ref_dq, ref_dqd;
-  return relative_error(x, ref);
-}
-
-}  // namespace
-
 DaemonLinearizer::DaemonLinearizer(const Client& client, std::string model, Backend backend, Precision precision,
                                    ArmPlant& reference)
     : client_(client), model_(std::move(model)), backend_(backend), precision_(precision), reference_(reference) {}
@@ -57,7 +38,7 @@ std::string DaemonLinearizer::operator()(const Trajectory& t, Linearization& out
                    std::to_string(stats_.calls + 1);
   const auto start = std::chrono::steady_clock::now();
   const RpcStatus status = client_.compute(req, result_);
-  stats_.round_trip_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats_.gradient_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!status) return status.to_string();
   ++stats_.calls;
   stats_.states += horizon;
@@ -67,7 +48,6 @@ std::string DaemonLinearizer::operator()(const Trajectory& t, Linearization& out
     return std::string("the response came from ") + backend_name(result_.backend()) + " in " +
            precision_name(result_.precision()) + ", not as asked";
   stats_.backend_mode = result_.backend_mode();
-  stats_.precision_used = result_.precision();
   stats_.fallback_states += result_.fallback_states().size();
 
   out.A.resize(horizon);

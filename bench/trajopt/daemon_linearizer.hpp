@@ -4,29 +4,15 @@
 // the backend's outputs are from the core library's f64 at the same states.
 #pragma once
 
-#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "arm_plant.hpp"
 #include "ilqr.hpp"
+#include "linearizer_stats.hpp"
 #include "rbdgrad/client.hpp"
 
 namespace rbdgrad::trajopt {
-
-struct LinearizerStats {
-  int calls = 0;
-  double round_trip_s = 0;       // client: the Compute calls, end to end
-  double server_compute_s = 0;   // server: in the backend
-  std::uint64_t states = 0;
-  std::uint64_t fallback_states = 0;  // fixed point: states the server computed again in floating point
-  std::string backend_mode;      // "" or "csim", as the responses say
-  Precision precision_used = Precision::kAuto;
-  // worst relative Frobenius error per state against the core library's f64, over every state sent
-  double max_grad_error = 0;     // of [∂q̈/∂q ∂q̈/∂q̇]
-  double max_minv_error = 0;     // of M⁻¹
-  double check_s = 0;            // time spent on that comparison (not part of the optimization)
-};
 
 class DaemonLinearizer {
  public:

@@ -2,18 +2,20 @@
 # The trajectory optimization of issue 7 through a real daemon: starts BUILD_DIR's rbdgradd on a
 # free loopback port with iiwa14, the CPU backend, the FPGA backend in C simulation (csim) and the
 # CUDA backend when they are built (without a GPU the latter reports itself unavailable and is
-# skipped), runs trajopt_bench over every backend and precision the daemon offers, and writes
-# trajopt.csv, trajopt.md, the progress log and the daemon's log into OUT_DIR. Builds nothing.
+# skipped), runs trajopt_bench over every backend and precision the daemon offers and over the
+# FPGA kernel's fixed-point formats in-process, and writes trajopt.csv, trajopt.md, the progress
+# log and the daemon's log into OUT_DIR. Builds nothing.
 #
 #   bench/trajopt/run_trajopt.sh BUILD_DIR [OUT_DIR] [trajopt_bench options ...]
 #
 # OUT_DIR defaults to BUILD_DIR/bench/trajopt/results. Options after it go to trajopt_bench, e.g.
-# --quick (a smoke test) or --runs cpu:f64,fpga:fixed (trajopt_bench --help lists them).
-# Exit status: trajopt_bench's (0: every run computed, and every f64 and f32 run reached the goal),
-# 1 when the daemon does not start or exits non-zero, 2 usage error.
+# --quick (a smoke test) or --runs cpu:f64,fpga:fixed,kernel:Q12.20 (trajopt_bench --help lists
+# them). Exit status: trajopt_bench's (0: every run computed, and every f64 and f32 run reached the
+# goal; fixed point is reported, not required), 1 when the daemon does not start or exits non-zero,
+# 2 usage error.
 set -euo pipefail
 
-usage() { sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
 [[ $# -ge 1 ]] || usage
 build=$(cd "$1" && pwd) || usage
 shift

@@ -1,8 +1,9 @@
 // trajopt_bench: what a backend's gradient error does to a controller (issue 7). iLQR moves the
 // iiwa14 from rest to rest (reach_task.hpp) with the rollouts in f64 in-process and the
-// linearization from rbdgradd, one batched request per iteration, once per backend and precision;
-// it reports iterations, final cost, goal error and times per run. run_trajopt.sh starts a daemon
-// and runs it.
+// linearization from rbdgradd, one batched request per iteration, once per backend and precision —
+// and from the FPGA kernel's arithmetic in-process in each fixed-point format it is built for
+// (kernel_linearizer.hpp), which the daemon does not serve; it reports iterations, final cost, goal
+// error and times per run. run_trajopt.sh starts a daemon and runs it.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <optional>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -21,6 +23,7 @@
 #include "arm_plant.hpp"
 #include "daemon_linearizer.hpp"
 #include "ilqr.hpp"
+#include "kernel_linearizer.hpp"
 #include "model_source.hpp"
 #include "rbdgrad/client.hpp"
 #include "reach_task.hpp"
@@ -33,8 +36,9 @@ using namespace rbdgrad::trajopt;
 
 constexpr cli::OptionSpec kOptions[] = {
     {"server", "ADDR", "the daemon: HOST:PORT or unix:PATH; default 127.0.0.1:50051"},
-    {"runs", "LIST", "backend:precision pairs, e.g. cpu:f64,cpu:f32,cpu:fixed,fpga:fixed,cuda:f64; default every "
-                     "ready backend in each precision it reports"},
+    {"runs", "LIST", "backend:precision pairs, e.g. cpu:f64,cpu:f32,cpu:fixed,fpga:fixed,cuda:f64, and kernel:FORMAT "
+                     "for the FPGA kernel in-process (Q20.12, Q16.16, Q12.20, Q24.24); default every ready backend "
+                     "in each precision it reports, then every kernel format"},
     {"csv", "PATH", "also write one CSV row per run there"},
     {"markdown", "PATH", "also write the Markdown table and one line per run there"},
     {"quick", "", "a smoke test: 50 steps, at most 10 iterations"},
@@ -45,9 +49,22 @@ constexpr cli::OptionSpec kOptions[] = {
 
 constexpr const char* kModel = "iiwa14";
 
+// One run: a backend and precision through the daemon, or a fixed-point format of the kernel
+// in-process.
+struct RunSpec {
+  bool kernel = false;
+  Backend backend{};
+  Precision precision{};
+  bench::FixedFormat format;  // kernel only
+
+  std::string name() const {
+    return kernel ? "kernel:" + format.name : std::string(backend_name(backend)) + ":" + precision_name(precision);
+  }
+};
+
 struct Options {
   std::string server = std::string(kDefaultServerAddress);
-  std::vector<std::pair<Backend, Precision>> runs;  // empty = all the daemon offers
+  std::vector<RunSpec> runs;  // empty = all the daemon offers, then every kernel format
   std::string csv, markdown;
   bool quick = false;
   IlqrOptions ilqr;
@@ -68,12 +85,20 @@ std::string parse_options(const cli::Args& args, Options& o) {
   if (const std::string* list = args.value("runs")) {
     for (const std::string& item : cli::split_list(*list)) {
       const std::size_t colon = item.find(':');
-      Backend b{};
-      Precision p{};
-      if (colon == std::string::npos || !parse_backend(item.substr(0, colon), b) || b == Backend::kAuto ||
-          !parse_precision(item.substr(colon + 1), p) || p == Precision::kAuto)
-        return "--runs: '" + item + "' is not BACKEND:PRECISION (cpu|cuda|fpga : f64|f32|fixed)";
-      o.runs.emplace_back(b, p);
+      RunSpec run;
+      if (colon != std::string::npos && item.substr(0, colon) == "kernel") {
+        const std::string name = item.substr(colon + 1);
+        const auto& formats = bench::fixed_formats();
+        const auto f = std::find_if(formats.begin(), formats.end(), [&](const auto& x) { return x.name == name; });
+        if (f == formats.end()) return "--runs: '" + item + "': the kernel has Q20.12, Q16.16, Q12.20 and Q24.24";
+        run.kernel = true;
+        run.format = *f;
+      } else if (colon == std::string::npos || !parse_backend(item.substr(0, colon), run.backend) ||
+                 run.backend == Backend::kAuto || !parse_precision(item.substr(colon + 1), run.precision) ||
+                 run.precision == Precision::kAuto) {
+        return "--runs: '" + item + "' is not BACKEND:PRECISION (cpu|cuda|fpga : f64|f32|fixed) or kernel:FORMAT";
+      }
+      o.runs.push_back(std::move(run));
     }
     if (o.runs.empty()) return "--runs is empty";
   }
@@ -130,10 +155,11 @@ void assess(const ReachTask& task, const ModelDescription& model, const Trajecto
 }
 
 RunRecord run_one(const Client& client, const Model& model, const ModelDescription& description,
-                  const ReachTask& task, const IlqrOptions& ilqr, Backend backend, Precision precision) {
+                  const ReachTask& task, const IlqrOptions& ilqr, const RunSpec& run) {
   RunRecord r;
-  r.backend = backend_name(backend);
-  r.precision = precision_name(precision);
+  // the kernel's rows are named as the accuracy benchmark names them
+  r.backend = run.kernel ? "fpga kernel" : backend_name(run.backend);
+  r.precision = run.kernel ? run.format.name : precision_name(run.precision);
   ArmPlant plant(model, task.dt), reference(model, task.dt);
   const QuadraticCost cost = reach_cost(task, plant.gravity_torque(task.q_goal));
   // start: the arm held still at q0 by its gravity torque
@@ -142,8 +168,21 @@ RunRecord run_one(const Client& client, const Model& model, const ModelDescripti
   const std::vector<Eigen::VectorXd> u_init(static_cast<std::size_t>(task.horizon), plant.gravity_torque(task.q0));
   r.initial_q_error = (task.q0 - task.q_goal).norm();
 
-  DaemonLinearizer linearizer(client, kModel, backend, precision, reference);
-  const std::string label = r.backend + " " + r.precision;
+  // one of the two, behind the same Linearize
+  std::optional<DaemonLinearizer> daemon;
+  std::optional<KernelLinearizer> kernel;
+  Linearize linearize;
+  const LinearizerStats* stats = nullptr;
+  if (run.kernel) {
+    kernel.emplace(run.format, reference);
+    linearize = [&kernel](const Trajectory& t, Linearization& out) { return (*kernel)(t, out); };
+    stats = &kernel->stats();
+  } else {
+    daemon.emplace(client, kModel, run.backend, run.precision, reference);
+    linearize = [&daemon](const Trajectory& t, Linearization& out) { return (*daemon)(t, out); };
+    stats = &daemon->stats();
+  }
+  const std::string label = run.kernel ? "kernel " + run.format.name : r.backend + " " + r.precision;
   auto progress = [&label](const IlqrIteration& it) {
     char gradients[64] = " (same linearization)";
     if (it.linearize_s > 0) std::snprintf(gradients, sizeof gradients, " gradients %.2f ms", it.linearize_s * 1e3);
@@ -155,29 +194,35 @@ RunRecord run_one(const Client& client, const Model& model, const ModelDescripti
       [&plant](const Eigen::VectorXd& x, const Eigen::VectorXd& u, Eigen::VectorXd& next) {
         return plant.step(x, u, next);
       },
-      [&linearizer](const Trajectory& t, Linearization& out) { return linearizer(t, out); }, cost, x0, u_init, ilqr,
-      progress);
+      linearize, cost, x0, u_init, ilqr, progress);
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const LinearizerStats& s = linearizer.stats();
+  const LinearizerStats& s = *stats;
   r.mode = s.backend_mode;
-  if (result.failed) {
+  const bool overflowed = result.failed && kernel && kernel->overflowed();
+  if (result.failed && !overflowed) {
     r.outcome = RunRecord::Outcome::kFailed;
     r.reason = result.stop_reason;
     return r;
   }
+  // an overflow ends the run where it is: its trajectory is the last accepted one, its iterations
+  // those before the linearization that overflowed
+  if (overflowed) r.outcome = RunRecord::Outcome::kOverflowed;
   r.reason = result.stop_reason;
-  r.iterations = result.iterations;
+  r.iterations = overflowed ? result.iterations - 1 : result.iterations;
   r.gradient_calls = s.calls;
   r.converged = result.converged;
   r.initial_cost = result.initial_cost;
   r.final_cost = result.final_cost;
   r.wall_s = elapsed - s.check_s;
-  r.gradient_s = s.round_trip_s;
+  r.gradient_s = s.gradient_s;
   r.server_compute_s = s.server_compute_s;
   r.max_grad_error = s.max_grad_error;
   r.max_minv_error = s.max_minv_error;
   r.fallback_states = s.fallback_states;
+  r.overflowed_states = s.overflowed_states;
   assess(task, description, result.trajectory, r);
+  // a run stopped by an overflow did not finish, wherever it stopped
+  if (overflowed) r.reached = false;
   std::fprintf(stderr, "%s: %s after %d iterations, cost %.6g -> %.6g, |q_T - q_goal| %.3e rad, |qd_T| %.3e rad/s: %s\n",
                label.c_str(), r.reason.c_str(), r.iterations, r.initial_cost, r.final_cost, r.q_error, r.qd_error,
                r.reached ? "goal reached" : "goal NOT reached");
@@ -211,11 +256,14 @@ int main(int argc, char** argv) {
     std::cout << "usage: trajopt_bench [--server ADDR] [--runs LIST] [options]\n\n"
               << "iLQR on iiwa14 from rest at q0 to rest at q_goal; the rollouts in f64 in-process, the\n"
               << "linearization of each iteration from rbdgradd in one batched request, per backend and\n"
-              << "precision. Progress on stderr, the Markdown table on stdout.\n\noptions:\n"
+              << "precision, or from the FPGA kernel's arithmetic in-process per fixed-point format\n"
+              << "(kernel:FORMAT; the daemon still gives the model). Progress on stderr, the Markdown table\n"
+              << "on stdout.\n\noptions:\n"
               << cli::format_options(kOptions)
               << "\nexit status: 0 every run computed and lowered its cost and its distance to the goal, and\n"
               << "(unless --quick) every f64 and f32 run reached the goal: fixed point is reported, not\n"
-              << "required; 1 otherwise; 2 usage error\n";
+              << "required, and a kernel run stopped by an overflow is reported as not reaching the goal;\n"
+              << "1 otherwise; 2 usage error\n";
     return 0;
   }
   Options o;
@@ -260,10 +308,14 @@ int main(int argc, char** argv) {
         not_ready.push_back(std::move(r));
         continue;
       }
-      for (Precision p : b.precisions) o.runs.emplace_back(b.backend, p);
+      for (Precision p : b.precisions) o.runs.push_back(RunSpec{false, b.backend, p, {}});
     }
     // cpu, cuda, fpga; f64, f32, fixed (the enumerations' order), whatever order the daemon lists
-    std::sort(o.runs.begin(), o.runs.end());
+    std::sort(o.runs.begin(), o.runs.end(), [](const RunSpec& a, const RunSpec& b) {
+      return std::pair(a.backend, a.precision) < std::pair(b.backend, b.precision);
+    });
+    // then the kernel in every format, in-process: needs no backend of the daemon's
+    for (const bench::FixedFormat& f : bench::fixed_formats()) o.runs.push_back(RunSpec{true, {}, {}, f});
   }
   if (o.runs.empty()) {
     std::cerr << "trajopt_bench: the daemon has no ready backend\n";
@@ -272,27 +324,31 @@ int main(int argc, char** argv) {
 
   std::vector<RunRecord> records;
   bool ok = true;
-  for (const auto& [backend, precision] : o.runs) {
-    if (std::string why = unavailable_reason(info, backend, precision); !why.empty()) {
-      std::cerr << "trajopt_bench: skipping " << backend_name(backend) << ":" << precision_name(precision) << ": "
-                << why << "\n";
+  for (const RunSpec& run : o.runs) {
+    std::string why = run.kernel ? "" : unavailable_reason(info, run.backend, run.precision);
+    if (!why.empty()) {
+      std::cerr << "trajopt_bench: skipping " << run.name() << ": " << why << "\n";
       RunRecord r;
-      r.backend = backend_name(backend);
-      r.precision = precision_name(precision);
+      r.backend = backend_name(run.backend);
+      r.precision = precision_name(run.precision);
       r.outcome = RunRecord::Outcome::kSkipped;
       r.reason = why;
       records.push_back(r);
       continue;
     }
-    RunRecord r = run_one(client, model, description, task, o.ilqr, backend, precision);
+    RunRecord r = run_one(client, model, description, task, o.ilqr, run);
+    const bool fixed = run.kernel || run.precision == Precision::kFixed;
     if (r.outcome == RunRecord::Outcome::kFailed) {
-      std::cerr << "trajopt_bench: " << r.backend << ":" << r.precision << " failed: " << r.reason << "\n";
+      std::cerr << "trajopt_bench: " << run.name() << " failed: " << r.reason << "\n";
       ok = false;
+    } else if (r.outcome == RunRecord::Outcome::kOverflowed) {
+      // the format's result, reported as not reaching the goal; fixed point is not required to
+      std::cerr << "trajopt_bench: " << run.name() << " stopped, goal not reached: " << r.reason << "\n";
     } else if (!(r.final_cost < r.initial_cost) || !(r.q_error < r.initial_q_error)) {
-      std::cerr << "trajopt_bench: " << r.backend << ":" << r.precision << " did not move toward the goal\n";
+      std::cerr << "trajopt_bench: " << run.name() << " did not move toward the goal\n";
       ok = false;
-    } else if (!o.quick && precision != Precision::kFixed && !r.reached) {
-      std::cerr << "trajopt_bench: " << r.backend << ":" << r.precision << " did not reach the goal\n";
+    } else if (!o.quick && !fixed && !r.reached) {
+      std::cerr << "trajopt_bench: " << run.name() << " did not reach the goal\n";
       ok = false;
     }
     records.push_back(std::move(r));
