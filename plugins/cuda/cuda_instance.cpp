@@ -11,6 +11,7 @@
 #include "cuda_device.hpp"
 #include "flat_model.hpp"
 #include "fused_launch.hpp"
+#include "host_copy.hpp"
 #include "state_message.hpp"
 
 namespace rbdgrad::cuda {
@@ -288,15 +289,21 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     p.outputs = b.outputs;
     p.tau_input = b.input_kind == RBDGRAD_INPUT_TAU;
     const S** device_inputs[] = {&p.q, &p.qd, &p.u, &p.fext, &p.minv};
+    // the host's part, overlapping the device's work on the previous chunk
+    HostCopy staging[5];
+    std::size_t staged = 0;
+    for (int k = 0; k < 5; ++k) {
+      if (!inputs[k].from || in_pinned[k]) continue;
+      staging[staged++] = {h_in + inputs[k].at + a * in_per_state[k] * sizeof(S),
+                           static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S),
+                           m * in_per_state[k] * sizeof(S)};
+    }
+    copy_in_parallel({staging, staged}, host_copy_threads());
     for (int k = 0; k < 5; ++k) {
       if (!inputs[k].from) continue;
       const std::size_t at = inputs[k].at + a * in_per_state[k] * sizeof(S), bytes = m * in_per_state[k] * sizeof(S);
       const unsigned char* from = static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S);
-      if (!in_pinned[k]) {
-        // the host's part, overlapping the device's work on the previous chunk
-        std::memcpy(h_in + at, from, bytes);
-        from = h_in + at;
-      }
+      if (!in_pinned[k]) from = h_in + at;
       if (!mapped && !one_copy) {
         if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, from, bytes, cudaMemcpyHostToDevice, stream),
                                    "copying the batch to the device");
@@ -364,11 +371,14 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     const cudaError_t done = chunks > 1 ? cudaEventSynchronize(copied_[c]) : cudaStreamSynchronize(streams_[0]);
     if (Status s = cuda_status(done, "running the fused kernel"); !s) return fail(s);
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
+    HostCopy unstaging[kOutputCount];
+    std::size_t unstaged = 0;
     for (int f = 0; f < kOutputCount; ++f) {
       if (!(b.outputs & (1u << f)) || out_pinned[f]) continue;
       const std::size_t at = a * out_per_state[f] * sizeof(S), bytes = m * out_per_state[f] * sizeof(S);
-      std::memcpy(static_cast<unsigned char*>(caller_output(b, f)) + at, h_out + out_at[f] + at, bytes);
+      unstaging[unstaged++] = {static_cast<unsigned char*>(caller_output(b, f)) + at, h_out + out_at[f] + at, bytes};
     }
+    copy_in_parallel({unstaging, unstaged}, host_copy_threads());
   }
   last_kernel_ms_ = 0;
   if (kernel_.time_kernel)
