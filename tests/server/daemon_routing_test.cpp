@@ -58,8 +58,9 @@ TEST(DaemonRouting, CostPolicyOverThreeBackends) {
   // a request for f64 never lands on the fixed-point backend
   r = compute_auto(channel, 1, v1::PRECISION_F64);
   EXPECT_EQ(r.backend(), v1::BACKEND_CPU);
-  r = compute_auto(channel, 1000, v1::PRECISION_F32);  // within the daemon's 1000-state limit
-  EXPECT_EQ(r.backend(), v1::BACKEND_CPU) << "cpu 2.3 ms against cuda 3.1 ms";
+  // a margin of 2x: the latency models are timed sleeps, which a loaded machine stretches
+  r = compute_auto(channel, 500, v1::PRECISION_F32);
+  EXPECT_EQ(r.backend(), v1::BACKEND_CPU) << "cpu 1.3 ms against cuda 3.05 ms";
 
   auto stub = v1::Dynamics::NewStub(channel);
   grpc::ClientContext ctx;
@@ -239,9 +240,14 @@ TEST(DaemonRouting, AHungBackendIsRoutedAroundAndDeadlinesHold) {
   EXPECT_EQ(hung_response.request_id(), "hang");
   EXPECT_EQ(queued_status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
   // the daemon's own refusal of the queued request (the client's deadline fired first; the
-  // metrics show that the server answered it without computing it)
-  const std::string text = daemon->metrics().text();
-  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_requests_total{backend=\"fpga\",code=\"deadline_exceeded\""));
+  // metrics show that the server answered it without computing it), right after the hung call
+  const std::string refused = "rbdgrad_requests_total{backend=\"fpga\",code=\"deadline_exceeded\"";
+  std::string text = daemon->metrics().text();
+  for (int i = 0; i < 500 && text.find(refused) == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    text = daemon->metrics().text();
+  }
+  EXPECT_THAT(text, ::testing::HasSubstr(refused));
   // and the fpga serves again
   EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
 }

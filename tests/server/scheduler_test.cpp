@@ -108,11 +108,12 @@ TEST(Scheduler, CostPolicyRoutesSmallToFpgaMiddleToCpuLargeToCuda) {
   ASSERT_EQ(c.size(), 3u);
   EXPECT_EQ(c[0], (std::pair<std::uint64_t, std::string>{1, "fpga"}));
   EXPECT_EQ(c[1].second, "cpu");
+  // 36 and 1420 with exact sleeps; a sleep overshoots by tens of us, more on a loaded machine
   EXPECT_GE(c[1].first, 20u);
-  EXPECT_LE(c[1].first, 80u);  // 36 with exact sleeps; a sleep overshoots by tens of us
+  EXPECT_LE(c[1].first, 150u);
   EXPECT_EQ(c[2].second, "cuda");
   EXPECT_GE(c[2].first, 600u);
-  EXPECT_LE(c[2].first, 2000u);
+  EXPECT_LE(c[2].first, 4000u);
 }
 
 TEST(Scheduler, ExplicitPrecisionIsKeptAndHintsPin) {
