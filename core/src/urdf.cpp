@@ -14,6 +14,8 @@
 #include <mutex>
 #include <sstream>
 
+#include "inertia_sum.hpp"
+
 namespace rbdgrad {
 namespace {
 
@@ -54,24 +56,7 @@ Eigen::Matrix3d frame_with_z_along(const Eigen::Vector3d& a) {
   return A;
 }
 
-// Rigid-body inertia accumulated in a body frame: mass, first moment and rotational inertia about the origin.
-struct InertiaSum {
-  double m = 0;
-  Eigen::Vector3d mc = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d I_origin = Eigen::Matrix3d::Zero();
-
-  static Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-    Eigen::Matrix3d S;
-    S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    return S;
-  }
-  // adds a body given its mass, com and inertia about the com, all in this frame
-  void add(double mass, const Eigen::Vector3d& c, const Eigen::Matrix3d& Ic) {
-    m += mass;
-    mc += mass * c;
-    I_origin += Ic - mass * skew(c) * skew(c);  // parallel axis theorem
-  }
-};
+using detail::InertiaSum;
 
 class TreeBuilder {
  public:
@@ -92,9 +77,8 @@ class TreeBuilder {
         return invalid_argument(file_ + ": link '" + link + "' (moved by joint '" + model_.joints[i].name +
                                 "') has no <inertial> and nothing with mass is fixed to it");
       model_.mass[i] = b.m;
-      model_.com[i] = b.m > 0 ? Eigen::Vector3d(b.mc / b.m) : Eigen::Vector3d::Zero();
-      model_.inertia_com[i] = b.I_origin + b.m * InertiaSum::skew(model_.com[i]) * InertiaSum::skew(model_.com[i]);
-      model_.inertia_com[i] = 0.5 * (model_.inertia_com[i] + model_.inertia_com[i].transpose()).eval();
+      model_.com[i] = b.com();
+      model_.inertia_com[i] = b.inertia_about_com();
     }
     finalize_topology(model_);
     if (std::string why = validate_model(model_); !why.empty()) return invalid_argument(file_ + ": " + why);
@@ -236,11 +220,7 @@ class TreeBuilder {
       const Eigen::Matrix3d& R = model_.joint_rotation[i];
       const Eigen::Vector3d& t = model_.joint_translation[i];
       const InertiaSum& c = composite[i];
-      if (c.m > 0) {
-        const Eigen::Vector3d com = c.mc / c.m;
-        const Eigen::Matrix3d Ic = c.I_origin + c.m * InertiaSum::skew(com) * InertiaSum::skew(com);
-        composite[p].add(c.m, R * com + t, R * Ic * R.transpose());
-      }
+      if (c.m > 0) composite[p].add(c.m, R * c.com() + t, R * c.inertia_about_com() * R.transpose());
     }
     return Status::ok();
   }
