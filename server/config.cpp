@@ -109,7 +109,7 @@ class Parser {
 
   Status parse_model(const std::string& key, const YAML::Node& node, ModelConfig& out) const {
     if (Status s = require_map(key, node); !s) return s;
-    if (Status s = check_keys(key, node, {"name", "urdf", "embedded", "gravity"}); !s) return s;
+    if (Status s = check_keys(key, node, {"name", "urdf", "embedded", "gravity", "locked_joints"}); !s) return s;
     if (!node["name"]) return error_at(key, node, "a model needs a 'name'");
     if (Status s = get_string(key + ".name", node["name"], out.name); !s) return s;
     if (out.name.empty()) return error_at(key + ".name", node["name"], "must not be empty");
@@ -134,6 +134,16 @@ class Parser {
         if (Status s = get_double(k, g[i], v[i]); !s) return s;
       }
       out.gravity = v;
+    }
+    const YAML::Node locked = node["locked_joints"];
+    if (locked && !locked.IsNull()) {
+      if (!locked.IsMap()) return error_at(key + ".locked_joints", locked, "expected a map of joint name: value");
+      for (const auto& entry : locked) {
+        const std::string joint = entry.first.as<std::string>();
+        double value = 0;
+        if (Status s = get_double(key + ".locked_joints." + joint, entry.second, value); !s) return s;
+        out.locked_joints.emplace_back(joint, value);
+      }
     }
     return Status::ok();
   }

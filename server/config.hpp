@@ -35,6 +35,11 @@ struct ModelConfig {
   std::string embedded;
   // Gravity [gx, gy, gz] in m/s^2. Default unset = the model's own (0, 0, -9.81).
   std::optional<std::array<double, 3>> gravity;
+  // Joints held at fixed values (rad or m), in the file's order: the model is reduced to the
+  // other joints (lock_joints: each locked body folded into the one it hangs from), so every
+  // backend works on the smaller tree, and requests, results and GetModel use the kept joints
+  // in their order. Default none.
+  std::vector<std::pair<std::string, double>> locked_joints;
 
   bool operator==(const ModelConfig&) const = default;
 };

@@ -8,6 +8,7 @@
 
 #include "model_source.hpp"
 #include "rbdgrad/embedded_robots.hpp"
+#include "rbdgrad/locked_joints.hpp"
 
 namespace rbdgrad::server {
 
@@ -51,6 +52,14 @@ Status load_one(const ModelConfig& cfg, std::size_t index, std::unique_ptr<const
 
   Model model;
   if (Status s = cli::load_model(spec, gravity, model); !s) return {s.code(), where + ": " + s.message()};
+  if (!cfg.locked_joints.empty()) {
+    std::vector<LockedJoint> locked;
+    for (const auto& [joint, value] : cfg.locked_joints) locked.push_back({joint, value});
+    Model reduced;
+    if (Status s = lock_joints(model, locked, reduced); !s) return {s.code(), where + ": " + s.message()};
+    model = std::move(reduced);
+    origin += " with " + std::to_string(locked.size()) + " joint(s) locked";
+  }
   out = std::make_unique<const ServedModel>(index, cfg.name, std::move(origin), std::move(source), std::move(model));
   return Status::ok();
 }

@@ -95,6 +95,33 @@ TEST(ServerConfigTest, OverridesModelsReplacingTheDefaultList) {
   EXPECT_FALSE(cfg.models[1].gravity.has_value());
 }
 
+TEST(ServerConfigTest, ModelsWithLockedJoints) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "models:\n"
+      "  - name: wristless\n"
+      "    embedded: iiwa14\n"
+      "    locked_joints: {iiwa_joint_7: -1, iiwa_joint_6: 0.5}\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(cfg.models.size(), 1u);
+  // in the file's order
+  const std::vector<std::pair<std::string, double>> want = {{"iiwa_joint_7", -1.0}, {"iiwa_joint_6", 0.5}};
+  EXPECT_EQ(cfg.models[0].locked_joints, want);
+  const std::pair<const char*, const char*> bad[] = {
+      {"models:\n  - {name: a, embedded: iiwa14, locked_joints: [iiwa_joint_1]}\n",
+       "key 'models[0].locked_joints' (line 2): expected a map of joint name: value"},
+      {"models:\n  - {name: a, embedded: iiwa14, locked_joints: {iiwa_joint_1: up}}\n",
+       "models[0].locked_joints.iiwa_joint_1"},
+  };
+  for (const auto& [text, want_message] : bad) {
+    ServerConfig c;
+    const Status e = parse_config(text, "t", c);
+    EXPECT_FALSE(e.is_ok()) << text;
+    EXPECT_NE(e.message().find(want_message), std::string::npos) << e.message();
+  }
+}
+
 TEST(ServerConfigTest, OverridesPlugins) {
   ServerConfig cfg;
   const Status s = parse_config(

@@ -15,6 +15,7 @@
 #include "model_source.hpp"
 #include "request_batch.hpp"
 #include "rbdgrad/algorithm/evaluate.hpp"
+#include "rbdgrad/locked_joints.hpp"
 
 namespace rbdgrad::server {
 namespace {
@@ -507,6 +508,58 @@ TEST_F(DaemonTest, APerStateNumericalFailureFailsTheRequestNamingTheState) {
   req.set_backend(v1::BACKEND_CUDA);
   set_value(req.mutable_q(), 0, -999.0);
   expect_refused(req, grpc::StatusCode::UNAVAILABLE, "request 'lost': cuda: device lost");
+}
+
+}  // namespace
+}  // namespace rbdgrad::server
+
+namespace rbdgrad::server {
+namespace {
+
+using namespace daemon_testing;
+namespace v1 = rbdgrad::v1;
+
+// A model configured with locked joints is served reduced: GetModel lists the kept joints, and a
+// request computes exactly what the core library computes on lock_joints' model.
+TEST(DaemonModels, LockedJointsServeTheReducedModel) {
+  DaemonOptions options = test_options("");
+  ModelConfig wristless{"wristless", "", "iiwa14", std::nullopt};
+  wristless.locked_joints = {{"iiwa_joint_6", 0.5}, {"iiwa_joint_7", -1.0}};
+  options.config.models = {wristless};
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  {
+    grpc::ClientContext ctx;
+    v1::GetModelRequest req;
+    req.set_name("wristless");
+    v1::GetModelResponse resp;
+    ASSERT_TRUE(stub->GetModel(&ctx, req, &resp).ok());
+    EXPECT_EQ(resp.nv(), 5u);
+    ASSERT_EQ(resp.joints_size(), 5);
+    EXPECT_EQ(resp.joints(4).name(), "iiwa_joint_5");
+  }
+  constexpr int kNv = 5;
+  constexpr uint32_t kN = 4;
+  const v1::ComputeRequest req = make_request("wristless", kNv, kN, 3, "locked", {v1::OUTPUT_DQDD_DQ});
+  v1::ComputeResponse resp;
+  grpc::ClientContext ctx;
+  ASSERT_TRUE(stub->Compute(&ctx, req, &resp).ok());
+  Model full, reduced;
+  ASSERT_TRUE(cli::load_model("iiwa14", std::nullopt, full).is_ok());
+  ASSERT_TRUE(lock_joints(full, {{"iiwa_joint_6", 0.5}, {"iiwa_joint_7", -1.0}}, reduced).is_ok());
+  Workspace ws(reduced);
+  const std::vector<double> q = values_of(req.q()), qd = values_of(req.qd()), tau = values_of(req.u());
+  const std::vector<double> dq = values_of(resp.dqdd_dq());
+  ASSERT_EQ(dq.size(), std::size_t{kN} * kNv * kNv);
+  for (uint32_t k = 0; k < kN; ++k) {
+    const Eigen::Map<const Eigen::VectorXd> qk(q.data() + k * kNv, kNv), qdk(qd.data() + k * kNv, kNv),
+        tauk(tau.data() + k * kNv, kNv);
+    ASSERT_TRUE(evaluate_outputs<double>(reduced, ws, qk, qdk, tauk, InputKind::kTau, kOutputDqddDq).is_ok());
+    for (int i = 0; i < kNv; ++i)
+      for (int j = 0; j < kNv; ++j)
+        ASSERT_EQ(dq[(k * kNv + i) * kNv + j], ws.dqdd_dq(i, j)) << "state " << k << " (" << i << ", " << j << ")";
+  }
 }
 
 }  // namespace

@@ -63,6 +63,30 @@ TEST(ModelRegistry, LoadsAUrdfFileEvenWhenNamedLikeAnEmbeddedRobot) {
   std::filesystem::remove_all(dir);
 }
 
+// A model with locked joints is served reduced (core lock_joints), its description too.
+TEST(ModelRegistry, LocksTheConfiguredJoints) {
+  ModelRegistry registry;
+  ModelConfig wristless = embedded("wristless", "iiwa14");
+  wristless.locked_joints = {{"iiwa_joint_6", 0.5}, {"iiwa_joint_7", -1.0}};
+  ASSERT_TRUE(ModelRegistry::load({wristless}, registry).is_ok());
+  const ServedModel* m = registry.find("wristless");
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->model.nv, 5);
+  EXPECT_EQ(m->desc.desc().nv, 5u);
+  EXPECT_EQ(m->model.joints.back().name, "iiwa_joint_5");
+  EXPECT_EQ(m->origin, "embedded iiwa14 with 2 joint(s) locked");
+  // the wrist's mass now belongs to joint 5's body
+  ModelRegistry full;
+  ASSERT_TRUE(ModelRegistry::load({embedded("iiwa14", "iiwa14")}, full).is_ok());
+  const Model& f = full.find("iiwa14")->model;
+  EXPECT_NEAR(m->model.mass[4], f.mass[4] + f.mass[5] + f.mass[6], 1e-12);
+
+  wristless.locked_joints = {{"wrist", 0.0}};
+  const Status s = ModelRegistry::load({wristless}, registry);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "model 'wristless': locked joint 'wrist': model 'iiwa14' has no such joint");
+}
+
 TEST(ModelRegistry, ErrorsNameTheModelAndKeepTheOldContents) {
   ModelRegistry registry;
   ASSERT_TRUE(ModelRegistry::load({embedded("iiwa14", "iiwa14")}, registry).is_ok());
