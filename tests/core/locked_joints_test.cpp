@@ -20,6 +20,42 @@ namespace {
 
 using testing::relative_error;
 
+// The full model with the locked joints at their values and at rest: its M and bias forces
+// (RNEA at q̈ = 0) restricted to the kept joints, at a state of the kept joints.
+class HeldModel {
+ public:
+  HeldModel(const Model& full, const std::vector<LockedJoint>& locked, std::vector<int> kept)
+      : full_(full), ws_(full), kept_(std::move(kept)), q_(Eigen::VectorXd::Zero(full.nv)) {
+    for (const LockedJoint& l : locked)
+      for (int i = 0; i < full.nv; ++i)
+        if (full.joints[static_cast<std::size_t>(i)].name == l.name) q_(i) = l.value;
+  }
+
+  void restricted(const Eigen::VectorXd& q_kept, const Eigen::VectorXd& qd_kept, Eigen::MatrixXd& M, Eigen::VectorXd& c) {
+    Eigen::VectorXd q = q_, qd = Eigen::VectorXd::Zero(full_.nv);
+    const auto n = static_cast<int>(kept_.size());
+    for (int k = 0; k < n; ++k) {
+      q(at(k)) = q_kept(k);
+      qd(at(k)) = qd_kept(k);
+    }
+    EXPECT_TRUE(crba(full_, ws_, q));
+    EXPECT_TRUE(rnea(full_, ws_, q, qd, Eigen::VectorXd::Zero(full_.nv)));
+    M.resize(n, n);
+    c.resize(n);
+    for (int a = 0; a < n; ++a) {
+      c(a) = ws_.tau(at(a));
+      for (int b = 0; b < n; ++b) M(a, b) = ws_.M(at(a), at(b));
+    }
+  }
+
+ private:
+  int at(int k) const { return kept_[static_cast<std::size_t>(k)]; }
+  const Model& full_;
+  Workspace ws_;
+  std::vector<int> kept_;
+  Eigen::VectorXd q_;  // the locked joints' values, zero elsewhere
+};
+
 // Compares, at random states of the kept joints, the reduced model's M, bias forces and forward
 // dynamics with the full model's rows and columns of the kept joints.
 void expect_restriction(const Model& full, const std::vector<LockedJoint>& locked, unsigned seed) {
@@ -29,37 +65,24 @@ void expect_restriction(const Model& full, const std::vector<LockedJoint>& locke
   ASSERT_TRUE(s) << s.to_string();
   ASSERT_EQ(reduced.nv, full.nv - static_cast<int>(locked.size()));
   ASSERT_EQ(kept.size(), static_cast<std::size_t>(reduced.nv));
-  Eigen::VectorXd locked_q = Eigen::VectorXd::Zero(full.nv);
   std::vector<bool> is_locked(static_cast<std::size_t>(full.nv), false);
   for (const LockedJoint& l : locked)
     for (int i = 0; i < full.nv; ++i)
-      if (full.joints[static_cast<std::size_t>(i)].name == l.name) {
-        locked_q(i) = l.value;
-        is_locked[static_cast<std::size_t>(i)] = true;
-      }
+      if (full.joints[static_cast<std::size_t>(i)].name == l.name) is_locked[static_cast<std::size_t>(i)] = true;
   for (int k = 0; k < reduced.nv; ++k) {
     EXPECT_FALSE(is_locked[static_cast<std::size_t>(kept[static_cast<std::size_t>(k)])]);
     EXPECT_EQ(reduced.joints[static_cast<std::size_t>(k)].name, full.joints[static_cast<std::size_t>(kept[k])].name);
   }
-  Workspace wf(full), wr(reduced);
+  HeldModel held(full, locked, kept);
+  Workspace wr(reduced);
   std::mt19937 rng(seed);
   for (int trial = 0; trial < 5; ++trial) {
     const Eigen::VectorXd qr = testing::random_vector(rng, reduced.nv, 1.5);
     const Eigen::VectorXd qdr = testing::random_vector(rng, reduced.nv, 2.0);
     const Eigen::VectorXd taur = testing::random_vector(rng, reduced.nv, 5.0);
-    Eigen::VectorXd q = locked_q, qd = Eigen::VectorXd::Zero(full.nv);
-    for (int k = 0; k < reduced.nv; ++k) {
-      q(kept[static_cast<std::size_t>(k)]) = qr(k);
-      qd(kept[static_cast<std::size_t>(k)]) = qdr(k);
-    }
-    ASSERT_TRUE(crba(full, wf, q));
-    ASSERT_TRUE(rnea(full, wf, q, qd, Eigen::VectorXd::Zero(full.nv)));
-    Eigen::MatrixXd Mk(reduced.nv, reduced.nv);
-    Eigen::VectorXd ck(reduced.nv);
-    for (int a = 0; a < reduced.nv; ++a) {
-      ck(a) = wf.tau(kept[static_cast<std::size_t>(a)]);
-      for (int b = 0; b < reduced.nv; ++b) Mk(a, b) = wf.M(kept[static_cast<std::size_t>(a)], kept[static_cast<std::size_t>(b)]);
-    }
+    Eigen::MatrixXd Mk;
+    Eigen::VectorXd ck;
+    held.restricted(qr, qdr, Mk, ck);
     ASSERT_TRUE(crba(reduced, wr, qr));
     EXPECT_LT(relative_error(wr.M, Mk), 1e-12) << "trial " << trial;
     ASSERT_TRUE(rnea(reduced, wr, qr, qdr, Eigen::VectorXd::Zero(reduced.nv)));
@@ -117,24 +140,11 @@ TEST(LockJoints, GradientsAreTheRestrictedOnes) {
   ASSERT_TRUE(fd_derivatives(reduced, wr, q, qd, tau, InputKind::kTau));
   const Eigen::MatrixXd dq = wr.dqdd_dq;
   // the held dynamics of the full model, qdd_k(q_k) = M_kk^-1 (tau - c_k)
-  Workspace wf(talos);
+  HeldModel held(talos, locked, kept);
   const auto held_qdd = [&](const Eigen::VectorXd& qk) {
-    Eigen::VectorXd qf = Eigen::VectorXd::Zero(talos.nv), qdf = Eigen::VectorXd::Zero(talos.nv);
-    for (const LockedJoint& l : locked)
-      for (int i = 0; i < talos.nv; ++i)
-        if (talos.joints[static_cast<std::size_t>(i)].name == l.name) qf(i) = l.value;
-    for (int k = 0; k < reduced.nv; ++k) {
-      qf(kept[static_cast<std::size_t>(k)]) = qk(k);
-      qdf(kept[static_cast<std::size_t>(k)]) = qd(k);
-    }
-    EXPECT_TRUE(crba(talos, wf, qf));
-    EXPECT_TRUE(rnea(talos, wf, qf, qdf, Eigen::VectorXd::Zero(talos.nv)));
-    Eigen::MatrixXd M(reduced.nv, reduced.nv);
-    Eigen::VectorXd c(reduced.nv);
-    for (int a = 0; a < reduced.nv; ++a) {
-      c(a) = wf.tau(kept[static_cast<std::size_t>(a)]);
-      for (int b = 0; b < reduced.nv; ++b) M(a, b) = wf.M(kept[static_cast<std::size_t>(a)], kept[static_cast<std::size_t>(b)]);
-    }
+    Eigen::MatrixXd M;
+    Eigen::VectorXd c;
+    held.restricted(qk, qd, M, c);
     return Eigen::VectorXd(M.ldlt().solve(tau - c));
   };
   Eigen::MatrixXd fd(reduced.nv, reduced.nv);
