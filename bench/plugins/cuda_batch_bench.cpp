@@ -155,6 +155,19 @@ Kernel block_kernel(bool mapped_io) {
   if (!mapped_io) k.options.mapped_io_max_kib = 0;
   return k;
 }
+// the defaults with f32 batches computed in f32 arithmetic (the plugin's option f32_compute: f32;
+// the default computes them in f64 on GPUs whose f64 is fast)
+Kernel f32_arithmetic() {
+  Kernel k{"f32-arith", {}};
+  k.options.f32_compute = rbdgrad::cuda::F32Compute::kF32;
+  return k;
+}
+// the defaults with batches beyond one chunk in `chunks` chunks of any size (1: no pipeline)
+Kernel pipeline(std::size_t chunks) {
+  Kernel k{std::to_string(chunks) + "chunks", {}};
+  k.options.chunks = {1, chunks};
+  return k;
+}
 Kernel block_kernel(int threads_per_state, int states_per_block) {
   Kernel k{"block" + std::to_string(threads_per_state) + "x" + std::to_string(states_per_block), {}};
   k.options.block_shape = {threads_per_state, states_per_block};
@@ -210,6 +223,8 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   state.counters["kernel_us"] = 1e3 * kernel_ms / timed_calls;
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
   state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
+  state.counters["f32_in_f64"] = instance->last_computed_f32_in_f64() ? 1 : 0;
+  state.counters["chunks"] = static_cast<double>(instance->last_chunks());
   state.counters["mapped_io"] = instance->last_used_mapped_io() ? 1 : 0;
   state.counters["pinned_arrays"] = instance->last_pinned_arrays();
   state.counters["states_per_s"] =
@@ -233,7 +248,8 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
 // of the robot's, the block kernel with copies at every size, and the one-thread kernel;
 // cuda_shape: the block kernel's shapes at a few sizes, to choose the default by measurement.
 const bool registered = [] {
-  const Kernel kernels[] = {default_kernel(), timed_kernel(), generic_kernel(), block_kernel(false), thread_kernel()};
+  const Kernel kernels[] = {default_kernel(),     timed_kernel(),  generic_kernel(),
+                            block_kernel(false), thread_kernel(), f32_arithmetic()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const Kernel& kernel : kernels)
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
@@ -243,7 +259,7 @@ const bool registered = [] {
         for (const bool pinned_memory : {true, false}) {
           if (kernel.name != "default" && !pinned_memory) continue;
           add<float>("cuda_e2e", robot, n, kernel, pinned_memory);
-          add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
+          if (kernel.name != "f32-arith") add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
         }
       }
   // cuda_concurrent: 1, 2 and 4 instances computing at once (states_per_s is their sum)
@@ -262,6 +278,14 @@ const bool registered = [] {
   for (const char* robot : {"iiwa14", "panda", "hyq"})
     for (std::size_t n : {32768, 65536})
       for (const Kernel& kernel : {block_kernel(true), thread_kernel()}) add<float>("cuda_choice", robot, n, kernel);
+  // cuda_pipeline: how many chunks a batch that copies goes in (against the default rule,
+  // chunk_states)
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (std::size_t chunks : {1, 2, 4, 8})
+      for (std::size_t n : {1024, 4096, 16384, 65536}) {
+        add<float>("cuda_pipeline", robot, n, pipeline(chunks));
+        add<double>("cuda_pipeline", robot, n, pipeline(chunks));
+      }
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const auto& [tps, spb] : shapes)

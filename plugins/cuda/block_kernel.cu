@@ -11,27 +11,31 @@ cudaError_t read_block_pass_clocks(long long* out, int count) {
 }
 #endif
 
-template <class S>
+template <class S, class IO>
 cudaError_t allow_block_shared_bytes(std::size_t bytes) {
-  return cudaFuncSetAttribute(block_fused_kernel<S, ModelView<S>>, cudaFuncAttributeMaxDynamicSharedMemorySize,
+  return cudaFuncSetAttribute(block_fused_kernel<S, ModelView<S>, IO>, cudaFuncAttributeMaxDynamicSharedMemorySize,
                               static_cast<int>(bytes));
 }
 
-template <class S>
-cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
+template <class S, class IO>
+cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                                cudaStream_t stream) {
   const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
   const auto blocks = static_cast<unsigned>((batch.n + per_block - 1) / per_block);
   const dim3 threads(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
-  block_fused_kernel<S, ModelView<S>><<<blocks, threads, block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream>>>(model, batch);
+  block_fused_kernel<S, ModelView<S>, IO>
+      <<<blocks, threads, block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream>>>(model, batch);
   return cudaGetLastError();
 }
 
-template cudaError_t allow_block_shared_bytes<double>(std::size_t);
-template cudaError_t allow_block_shared_bytes<float>(std::size_t);
-template cudaError_t launch_block_fused<double>(const ModelView<double>&, const BatchPointers<double>&,
-                                                const BlockShape&, cudaStream_t);
-template cudaError_t launch_block_fused<float>(const ModelView<float>&, const BatchPointers<float>&, const BlockShape&,
-                                               cudaStream_t);
+template cudaError_t allow_block_shared_bytes<double, double>(std::size_t);
+template cudaError_t allow_block_shared_bytes<float, float>(std::size_t);
+template cudaError_t allow_block_shared_bytes<double, float>(std::size_t);
+template cudaError_t launch_block_fused<double, double>(const ModelView<double>&, const BatchPointers<double>&,
+                                                        const BlockShape&, cudaStream_t);
+template cudaError_t launch_block_fused<float, float>(const ModelView<float>&, const BatchPointers<float>&,
+                                                      const BlockShape&, cudaStream_t);
+template cudaError_t launch_block_fused<double, float>(const ModelView<double>&, const BatchPointers<float>&,
+                                                       const BlockShape&, cudaStream_t);
 
 }  // namespace rbdgrad::cuda

@@ -41,13 +41,14 @@ std::size_t block_shared_bytes(int nv, bool tau_input, const BlockShape& shape) 
                                         static_cast<std::size_t>(shape.states_per_block);
 }
 
-/// Lets the kernel use up to `bytes` of shared memory per block (the device's opt-in limit);
-/// once per device before the first launch.
-template <class S>
+/// Lets the kernel (S computing, IO the batch's scalars) use up to `bytes` of shared memory per
+/// block (the device's opt-in limit); once per device before the first launch.
+template <class S, class IO = S>
 cudaError_t allow_block_shared_bytes(std::size_t bytes);
 
 /// Enqueues the kernel on `stream` for every state of `batch` (block_kernel_supports(batch), its
-/// shared memory within what allow_block_shared_bytes allowed; `shape` resolved).
+/// shared memory within what allow_block_shared_bytes allowed; `shape` resolved), computing in S:
+/// IO is S, or float with S double (an f32 batch computed in f64).
 /// \return the launch error, if any (execution errors show at the next synchronisation).
 #if defined(RBDGRAD_BLOCK_PASS_TIMING)
 /// Measurement builds: the SM clock of state 0's group before the first pass and after each
@@ -55,8 +56,8 @@ cudaError_t allow_block_shared_bytes(std::size_t bytes);
 cudaError_t read_block_pass_clocks(long long* out, int count);
 #endif
 
-template <class S>
-cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
+template <class S, class IO>
+cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                                cudaStream_t stream);
 
 }  // namespace rbdgrad::cuda

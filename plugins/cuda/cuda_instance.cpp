@@ -5,6 +5,7 @@
 #include <cstring>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "common/batch_view.hpp"
 #include "common/error.hpp"
@@ -65,12 +66,11 @@ CudaInstance::CudaInstance(const Model& model, int device, std::size_t workspace
 CudaInstance::~CudaInstance() {
   // the allocations free themselves; they need this device current
   cudaSetDevice(device_);
-  for (cudaEvent_t e : kernel_end_)
-    if (e) cudaEventDestroy(e);
-  for (cudaEvent_t e : copied_)
-    if (e) cudaEventDestroy(e);
+  for (const cudaEvent_t* events : {uploaded_, kernel_end_, copied_})
+    for (std::size_t c = 0; c < kMaxChunks; ++c)
+      if (events[c]) cudaEventDestroy(events[c]);
   if (kernel_start_) cudaEventDestroy(kernel_start_);
-  for (cudaStream_t s : streams_)
+  for (cudaStream_t s : {streams_[0], streams_[1], upload_, download_})
     if (s) cudaStreamDestroy(s);
 }
 
@@ -101,15 +101,15 @@ Status CudaInstance::upload_model(Allocation& block, ModelView<S>& view) {
 
 Status CudaInstance::init() {
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
-  for (cudaStream_t& stream : streams_) {
-    if (Status s = cuda_status(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking), "cudaStreamCreate"); !s)
+  for (cudaStream_t* stream : {&streams_[0], &streams_[1], &upload_, &download_}) {
+    if (Status s = cuda_status(cudaStreamCreateWithFlags(stream, cudaStreamNonBlocking), "cudaStreamCreate"); !s)
       return s;
   }
   if (Status s = cuda_status(cudaEventCreate(&kernel_start_), "cudaEventCreate"); !s) return s;
   for (std::size_t c = 0; c < kMaxChunks; ++c) {
     if (Status s = cuda_status(cudaEventCreate(&kernel_end_[c]), "cudaEventCreate"); !s) return s;
-    if (Status s = cuda_status(cudaEventCreateWithFlags(&copied_[c], cudaEventDisableTiming), "cudaEventCreate"); !s)
-      return s;
+    for (cudaEvent_t* e : {&uploaded_[c], &copied_[c]})
+      if (Status s = cuda_status(cudaEventCreateWithFlags(e, cudaEventDisableTiming), "cudaEventCreate"); !s) return s;
   }
   // robot constants, once
   const FlatModel<double> flat(model_);
@@ -134,20 +134,34 @@ Status CudaInstance::init() {
   device_name_ = std::string(prop.name) + " (device " + std::to_string(device_) + ")";
   if (Status s = cuda_status(allow_block_shared_bytes<double>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
   if (Status s = cuda_status(allow_block_shared_bytes<float>(max_shared_bytes_), "cudaFuncSetAttribute"); !s) return s;
+  if (Status s = cuda_status(allow_block_shared_bytes<double, float>(max_shared_bytes_), "cudaFuncSetAttribute"); !s)
+    return s;
+  int f32_per_f64 = 0;
+  if (Status s = cuda_status(cudaDeviceGetAttribute(&f32_per_f64, cudaDevAttrSingleToDoublePrecisionPerfRatio, device_),
+                             "cudaDeviceGetAttribute");
+      !s)
+    return s;
+  fast_f64_ = f32_per_f64 >= 1 && f32_per_f64 <= kFastF64MaxRatio;
   // zero-filled: entries outside the tree's sparsity are never written, and must read as zero
   return d_scratch_.allocate_zeroed(slots_ * slot_bytes);
 }
 
-std::size_t chunk_states(std::size_t n, std::size_t slots) {
+std::size_t chunk_min_states(int nv) {
+  const auto entries = static_cast<std::size_t>(nv) * static_cast<std::size_t>(nv);
+  return std::max(kMinChunkStates, (kChunkMatrixEntries + entries - 1) / entries);
+}
+
+std::size_t chunk_states(std::size_t n, std::size_t slots, const ChunkRule& rule, int nv) {
   const std::size_t rounds = (n + slots - 1) / slots;  // passes of the resident threads over the batch
   if (rounds >= 2) {
     // whole rounds per chunk: splitting a round would add one (talos_reduced, N = 65536: +7%)
-    const std::size_t chunks = std::min(kMaxChunks, rounds);
+    const std::size_t chunks = std::min(rule.max_chunks, rounds);
     return (rounds + chunks - 1) / chunks * slots;
   }
   // one round: the kernel is latency-bound and a chunk of it costs about as much as the whole
   // (iiwa14, N = 65536 in 4 chunks: end to end 4.9 -> 3.2 ms in f32)
-  const std::size_t chunks = std::clamp<std::size_t>(n / kChunkStates, 1, kMaxChunks);
+  const std::size_t min_states = rule.min_states > 0 ? rule.min_states : chunk_min_states(nv);
+  const std::size_t chunks = std::clamp<std::size_t>(n / min_states, 1, rule.max_chunks);
   return (n + chunks - 1) / chunks;
 }
 
@@ -157,6 +171,9 @@ Status check_kernel_options(const KernelOptions& options) {
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
+  if (options.chunks.max_chunks < 1 || options.chunks.max_chunks > kMaxChunks)
+    return invalid_argument("at most " + std::to_string(options.chunks.max_chunks) + " chunks: a batch goes in 1 to " +
+                            std::to_string(kMaxChunks) + " chunks");
   return Status::ok();
 }
 
@@ -166,38 +183,55 @@ Status CudaInstance::set_kernel_options(const KernelOptions& options) {
   return Status::ok();
 }
 
-template <class S>
+bool CudaInstance::f32_in_f64() const {
+  return kernel_.f32_compute == F32Compute::kF64 || (kernel_.f32_compute == F32Compute::kAuto && fast_f64_);
+}
+
+template <class C, class S>
 bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const {
   // large f32 batches of small models: more states resident at once in the one-thread kernel
-  if (std::is_same_v<S, float> && model_.nv <= kThreadKernelMaxNv && kernel_.f32_thread_kernel_min_states > 0 &&
+  if (std::is_same_v<C, float> && model_.nv <= kThreadKernelMaxNv && kernel_.f32_thread_kernel_min_states > 0 &&
       n >= kernel_.f32_thread_kernel_min_states)
     return false;
   return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
-         block_shared_bytes<S>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv, n)) <=
+         block_shared_bytes<C>(model_.nv, batch.tau_input, block_shape_for(kernel_.block_shape, model_.nv, n)) <=
              max_shared_bytes_;
 }
 
 template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
 template <> const ModelView<float>& CudaInstance::view<float>() const { return view_f32_; }
-template <>
-const SpecializedBlockKernel* CudaInstance::specialized<double>() const {
-  return specialized_f64_.get();
+template <class C, class S>
+const SpecializedBlockKernel* CudaInstance::specialized() const {
+  if (!kernel_.robot_specific) return nullptr;
+  if constexpr (std::is_same_v<C, float>) return specialized_f32_.get();
+  else if constexpr (std::is_same_v<S, float>) return specialized_f64_for_f32_.get();
+  else return specialized_f64_.get();
 }
-template <>
-const SpecializedBlockKernel* CudaInstance::specialized<float>() const {
-  return specialized_f32_.get();
+
+template <class C, class S>
+cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape,
+                                       cudaStream_t stream) const {
+  const SpecializedBlockKernel* specific = specialized<C, S>();
+  return specific ? specific->launch<C, S>(view<C>(), batch, shape, stream)
+                  : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
 }
 
 Status CudaInstance::specialize(const std::string& cache_dir) {
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
   Status first = Status::ok();
   std::string parts;
-  for (bool single : {false, true}) {
-    std::unique_ptr<SpecializedBlockKernel>& k = single ? specialized_f32_ : specialized_f64_;
+  specialized_f64_for_f32_.reset();
+  // f32 batches computed in f64 need a kernel of their own (f32 inputs and outputs)
+  std::vector<KernelScalars> wanted = {KernelScalars::kF64, KernelScalars::kF32};
+  if (f32_in_f64()) wanted.push_back(KernelScalars::kF64ForF32);
+  for (const KernelScalars scalars : wanted) {
+    std::unique_ptr<SpecializedBlockKernel>& k = scalars == KernelScalars::kF32   ? specialized_f32_
+                                                 : scalars == KernelScalars::kF64 ? specialized_f64_
+                                                                                  : specialized_f64_for_f32_;
     k.reset();
-    const Status s = SpecializedBlockKernel::load(model_, single, device_, max_shared_bytes_, cache_dir, k);
+    const Status s = SpecializedBlockKernel::load(model_, scalars, device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
-    parts += std::string(parts.empty() ? "" : "; ") + (single ? "f32: " : "f64: ");
+    parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
       parts += "generic kernel, " + s.message().substr(0, s.message().find('\n'));
       continue;
@@ -208,7 +242,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     if (!k->warning().empty()) parts += ", " + k->warning();
   }
   kernel_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
-                        parts + ")";
+                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "");
   return first;
 }
 
@@ -258,8 +292,22 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   auto* d_in = static_cast<unsigned char*>(mapped ? h_in_.device_address() : d_in_.data());
   auto* d_out = static_cast<unsigned char*>(mapped ? h_out_.device_address() : d_out_.data());
 
-  const std::size_t chunk = mapped ? n : chunk_states(n, slots_);
+  // The kernel, chosen for the whole batch so that every chunk runs the same one: the block kernel
+  // for the gradient requests it takes, an f32 batch in f64 where the options say so (F32Compute).
+  // Its arrays matter here only in being there or not.
+  BatchPointers<S> whole;
+  whole.n = n;
+  whole.outputs = b.outputs;
+  whole.tau_input = b.input_kind == RBDGRAD_INPUT_TAU;
+  whole.qd = static_cast<const S*>(b.qd);
+  whole.u = static_cast<const S*>(b.u);
+  whole.minv = static_cast<const S*>(b.minv);
+  const bool wide = std::is_same_v<S, float> && f32_in_f64() && use_block_kernel<double>(whole, n);
+  const bool block = wide || use_block_kernel<S>(whole, n);
+  // the one-thread kernels of a batch share the workspace's slots: whole passes over them per chunk
+  const std::size_t chunk = mapped ? n : chunk_states(n, block ? n : slots_, kernel_.chunks, model_.nv);
   const std::size_t chunks = (n + chunk - 1) / chunk;
+  const bool pipelined = chunks > 1;
   // larger batches: the caller's pinned arrays go straight to and from the device (a check costs
   // about a microsecond, and staging a small batch hardly more)
   bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
@@ -274,16 +322,17 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   const auto chunk_begin = [&](std::size_t c) { return std::min(n, c * chunk); };
   // on an error, what is under way must finish before the buffers can be reused
   const auto fail = [&](Status s) {
-    for (cudaStream_t stream : streams_) cudaStreamSynchronize(stream);
+    for (cudaStream_t stream : {streams_[0], streams_[1], upload_, download_}) cudaStreamSynchronize(stream);
     cudaGetLastError();
     return s;
   };
 
-  bool block = false;
   const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv, n);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
-    cudaStream_t stream = streams_[c % 2];
+    // one chunk: everything on one stream (fewest calls); several: see the class comment
+    cudaStream_t stream = pipelined ? streams_[c % 2] : streams_[0];
+    cudaStream_t in_stream = pipelined ? upload_ : stream, out_stream = pipelined ? download_ : stream;
     BatchPointers<S> p;
     p.n = m;
     p.outputs = b.outputs;
@@ -305,7 +354,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       const unsigned char* from = static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S);
       if (!in_pinned[k]) from = h_in + at;
       if (!mapped && !one_copy) {
-        if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, from, bytes, cudaMemcpyHostToDevice, stream),
+        if (Status s = cuda_status(cudaMemcpyAsync(d_in + at, from, bytes, cudaMemcpyHostToDevice, in_stream),
                                    "copying the batch to the device");
             !s)
           return fail(s);
@@ -323,23 +372,28 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
         p.out[f] = reinterpret_cast<S*>(d_out + out_at[f] + a * out_per_state[f] * sizeof(S));
     p.status = reinterpret_cast<std::uint32_t*>(d_out + status_at) + a;
 
-    // the block kernel for the gradient requests it takes (the whole batch decides, so that every
-    // chunk runs the same kernel)
-    block = use_block_kernel(p, n);
-    // the first kernel starts the clock; the one-thread kernels run one after the other (they
-    // share the workspace), the block kernel's may overlap (shared memory only)
+    // the kernel once its inputs are there; the first kernel starts the clock; the one-thread
+    // kernels run one after the other (they share the workspace), the block kernel's may overlap
+    // (shared memory only)
     cudaError_t e = cudaSuccess;
-    if (c == 0 && kernel_.time_kernel) e = cudaEventRecord(kernel_start_, stream);
-    else if (c > 0 && !block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
+    if (pipelined) {
+      e = cudaEventRecord(uploaded_[c], upload_);
+      if (e == cudaSuccess) e = cudaStreamWaitEvent(stream, uploaded_[c], 0);
+    }
+    if (e == cudaSuccess && c == 0 && kernel_.time_kernel) e = cudaEventRecord(kernel_start_, stream);
+    else if (e == cudaSuccess && c > 0 && !block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
     if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
-    const SpecializedBlockKernel* specific = kernel_.robot_specific ? specialized<S>() : nullptr;
-    const cudaError_t launched = !block    ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
-                                 : specific ? specific->launch<S>(view<S>(), p, shape, stream)
-                                            : launch_block_fused<S>(view<S>(), p, shape, stream);
+    const cudaError_t launched = !block ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
+                                 : wide ? launch_block<double>(p, shape, stream)
+                                        : launch_block<S>(p, shape, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     // each runtime call costs about a microsecond of a small batch's time: only the events used
-    if (c + 1 < chunks || kernel_.time_kernel)
+    if (pipelined || kernel_.time_kernel)
       if (Status s = cuda_status(cudaEventRecord(kernel_end_[c], stream), "cudaEventRecord"); !s) return fail(s);
+    // the download waits for this chunk's kernel only, never the other way round
+    if (pipelined)
+      if (Status s = cuda_status(cudaStreamWaitEvent(download_, kernel_end_[c], 0), "ordering the copies"); !s)
+        return fail(s);
 
     if (one_copy) {
       if (Status s = cuda_status(cudaMemcpyAsync(h_out, d_out, out_layout.size(), cudaMemcpyDeviceToHost, stream),
@@ -356,19 +410,18 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
       unsigned char* to = !is_status && out_pinned[f]
                               ? static_cast<unsigned char*>(caller_output(b, f)) + a * out_per_state[f] * sizeof(S)
                               : h_out + at;
-      if (Status s = cuda_status(cudaMemcpyAsync(to, d_out + at, bytes,
-                                                 cudaMemcpyDeviceToHost, stream),
+      if (Status s = cuda_status(cudaMemcpyAsync(to, d_out + at, bytes, cudaMemcpyDeviceToHost, out_stream),
                                  "copying the results from the device");
           !s)
         return fail(s);
     }
-    if (chunks > 1)
-      if (Status s = cuda_status(cudaEventRecord(copied_[c], stream), "cudaEventRecord"); !s) return fail(s);
+    if (pipelined)
+      if (Status s = cuda_status(cudaEventRecord(copied_[c], download_), "cudaEventRecord"); !s) return fail(s);
   }
 
   // outputs out of the pinned block, chunk by chunk as they arrive
   for (std::size_t c = 0; c < chunks; ++c) {
-    const cudaError_t done = chunks > 1 ? cudaEventSynchronize(copied_[c]) : cudaStreamSynchronize(streams_[0]);
+    const cudaError_t done = pipelined ? cudaEventSynchronize(copied_[c]) : cudaStreamSynchronize(streams_[0]);
     if (Status s = cuda_status(done, "running the fused kernel"); !s) return fail(s);
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     HostCopy unstaging[kOutputCount];
@@ -380,14 +433,19 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     }
     copy_in_parallel({unstaging, unstaged}, host_copy_threads());
   }
+  // from the first kernel's start to the last kernel's end (the two compute streams may finish
+  // out of order)
   last_kernel_ms_ = 0;
-  if (kernel_.time_kernel)
-    if (Status s = cuda_status(cudaEventElapsedTime(&last_kernel_ms_, kernel_start_, kernel_end_[chunks - 1]),
-                               "cudaEventElapsedTime");
-        !s)
+  for (std::size_t c = 0; c < chunks && kernel_.time_kernel; ++c) {
+    float ms = 0;
+    if (Status s = cuda_status(cudaEventElapsedTime(&ms, kernel_start_, kernel_end_[c]), "cudaEventElapsedTime"); !s)
       return s;
+    last_kernel_ms_ = std::max(last_kernel_ms_, ms);
+  }
   last_block_ = block;
-  last_specific_ = block && kernel_.robot_specific && specialized<S>() != nullptr;
+  last_specific_ = block && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
+  last_f32_in_f64_ = wide;
+  last_chunks_ = chunks;
   last_mapped_ = mapped;
   last_pinned_ = 0;
   for (bool pinned : in_pinned) last_pinned_ += pinned;

@@ -1,12 +1,13 @@
 // One model on one GPU: the robot constants uploaded once (f64 and f32), the kernel's workspace
-// allocated once, a stream, and one pinned host block and one device block per direction that
-// grow by size class. compute() copies the inputs into the pinned block, then on the stream: one
+// allocated once, streams, and one pinned host block and one device block per direction that
+// grow by size class. compute() copies the inputs into the pinned block, then on a stream: one
 // copy in, one kernel launch for the whole batch, one copy out; then the outputs out of the
 // pinned block into the caller's arrays. Small batches skip the two device copies: the kernel
 // reads and writes the pinned blocks directly (mapped memory). Larger batches skip the staging
-// of every caller array that is pinned itself. Large batches go in chunks on two streams, so that the
-// copies of one chunk (host staging and PCIe) overlap the kernel of another; the kernels still run
-// one after the other, as they share the workspace.
+// of every caller array that is pinned itself. Large batches go in chunks through a pipeline:
+// every chunk's inputs on one upload stream, its kernel on one of two compute streams once they
+// are there, its outputs on one download stream once it is done, so that a kernel never waits
+// for an earlier chunk's download and the copies of one chunk overlap the kernels of others.
 #pragma once
 
 #include <cuda_runtime_api.h>
@@ -31,10 +32,24 @@ static_assert(kMaxNv <= kMaxBlockNv, "the block kernel's index arithmetic must c
 // Default device memory for the kernel's workspace (the plugin's option workspace_mib); the number
 // of thread slots follows from it, up to what the GPU can hold resident.
 inline constexpr std::size_t kDefaultWorkspaceBytes = std::size_t{1} << 30;
-// A batch that one pass of the resident threads covers is pipelined in chunks of at least this
-// many states (at most kMaxChunks); see chunk_states.
-inline constexpr std::size_t kChunkStates = 8192;
-inline constexpr std::size_t kMaxChunks = 4;
+// A batch that one pass of the resident threads covers is pipelined in up to kMaxChunks chunks,
+// each with at least kChunkMatrixEntries entries in each nv x nv output and at least
+// kMinChunkStates states (the plugin's options chunk_min_states, max_chunks); see chunk_states.
+// Measured on the H200 (docs/benchmarks/cuda.md, run 23): iiwa14 (nv 7) is fastest in chunks of
+// about 1024 states, talos_reduced (nv 32) of 128 to 512.
+inline constexpr std::size_t kChunkMatrixEntries = 1024 * 49;
+inline constexpr std::size_t kMinChunkStates = 64;
+inline constexpr std::size_t kMaxChunks = 8;
+
+/// How large batches are split into pipelined chunks (chunk_states).
+struct ChunkRule {
+  std::size_t min_states = 0;           // 0: by the model's size, chunk_min_states(nv)
+  std::size_t max_chunks = kMaxChunks;  // 1 to kMaxChunks
+};
+
+/// The smallest chunk of a model with nv joints: kChunkMatrixEntries / nv^2 states rounded up,
+/// at least kMinChunkStates.
+std::size_t chunk_min_states(int nv);
 // The block kernel computes gradient requests of up to this many states (the plugin's option
 // block_max_states); larger ones, and every other request, go to the one-thread kernel.
 inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
@@ -55,6 +70,15 @@ inline constexpr int kThreadKernelMaxNv = 16;
 // docs/benchmarks/cuda.md.
 inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
 
+/// What an f32 gradient batch computes in (the plugin's option f32_compute: auto, f32, f64). In
+/// f64 the block kernel reads the f32 inputs and rounds its results to f32 as it writes them:
+/// more accurate than f32 arithmetic and, where the GPU's f64 rate is at least half its f32 rate,
+/// faster (the f32 kernel does twice the f64 kernel's operations, docs/benchmarks/cuda.md). auto:
+/// f64 on such GPUs (cudaDevAttrSingleToDoublePrecisionPerfRatio <= 2: A100, H100, H200), f32
+/// elsewhere.
+enum class F32Compute { kAuto, kF32, kF64 };
+inline constexpr int kFastF64MaxRatio = 2;
+
 /// Which kernel computes a batch, the block kernel's shape, and which batches skip the copies
 /// (plugin options of the same names; mapped_io_max_kib 0: none).
 struct KernelOptions {
@@ -66,15 +90,20 @@ struct KernelOptions {
   bool robot_specific = true;
   // CUDA events around the kernels, for last_kernel_ms (benchmarks): two more calls per batch
   bool time_kernel = false;
+  ChunkRule chunks;
+  F32Compute f32_compute = F32Compute::kAuto;
 };
 
-/// Errors: invalid_argument (a block of more than 1024 threads, or none).
+/// Errors: invalid_argument (a block of more than 1024 threads, or none; chunks.max_chunks outside
+/// 1 to kMaxChunks).
 Status check_kernel_options(const KernelOptions& options);
 
-/// States per chunk of a batch of `n` states on an instance with `slots` resident thread slots:
-/// whole passes of the slots when the batch needs several, else n split in up to kMaxChunks
-/// chunks of at least kChunkStates. n >= 1, slots >= 1.
-std::size_t chunk_states(std::size_t n, std::size_t slots);
+/// States per chunk of a batch of `n` states whose kernel has `slots` resident thread slots (the
+/// one-thread kernel's workspace; n for the block kernel, which needs none): whole passes of the
+/// slots when the batch needs several, else n split in up to rule.max_chunks
+/// chunks of at least rule.min_states (0: chunk_min_states(nv)). n >= 1, slots >= 1, rule as
+/// check_kernel_options allows.
+std::size_t chunk_states(std::size_t n, std::size_t slots, const ChunkRule& rule, int nv);
 
 class CudaInstance {
  public:
@@ -112,6 +141,12 @@ class CudaInstance {
   bool last_used_mapped_io() const { return last_mapped_; }
   /// Whether the last successful compute() ran the block kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }
+  /// How many chunks the last successful compute() went in (chunk_states).
+  std::size_t last_chunks() const { return last_chunks_; }
+  /// Whether the last successful compute() was an f32 batch computed in f64 (F32Compute).
+  bool last_computed_f32_in_f64() const { return last_f32_in_f64_; }
+  /// Whether f32 gradient batches compute in f64 with the current options on this GPU.
+  bool f32_in_f64() const;
   /// How many of the caller's arrays the last successful compute() moved without staging (pinned).
   int last_pinned_arrays() const { return last_pinned_; }
 
@@ -129,18 +164,26 @@ class CudaInstance {
   Status init();
   template <class S> Status upload_model(Allocation& block, ModelView<S>& view);
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
-  template <class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
+  // C: what the block kernel would compute in, S: the batch's scalars
+  template <class C, class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
+  template <class C, class S>
+  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, cudaStream_t stream) const;
   template <class S> const ModelView<S>& view() const;
-  template <class S> const SpecializedBlockKernel* specialized() const;
+  template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
   Model model_;
   int device_;
   std::string device_name_;
   std::size_t workspace_bytes_;
-  cudaStream_t streams_[2] = {};  // chunks alternate between them
+  // a batch of one chunk runs on streams_[0]; the chunks of a larger one alternate between the
+  // two for their kernels, their copies go on upload_ and download_
+  cudaStream_t streams_[2] = {};
+  cudaStream_t upload_ = nullptr, download_ = nullptr;
   cudaEvent_t kernel_start_ = nullptr;  // before the first chunk's launch (time_kernel)
-  // after each chunk's launch but the last (and after the last, with time_kernel): the next
-  // chunk's kernel waits for it
+  // after each chunk's inputs reached the device (batches of several chunks): its kernel waits
+  cudaEvent_t uploaded_[kMaxChunks] = {};
+  // after each chunk's launch but the last (and after the last, with time_kernel): its download,
+  // and the next chunk's one-thread kernel, wait for it
   cudaEvent_t kernel_end_[kMaxChunks] = {};
   // after each chunk's outputs reached the pinned block (batches of several chunks; one chunk
   // waits for its stream)
@@ -151,7 +194,10 @@ class CudaInstance {
   bool last_block_ = false;
   bool last_mapped_ = false;
   bool last_specific_ = false;
-  std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_;
+  bool last_f32_in_f64_ = false;
+  std::size_t last_chunks_ = 0;
+  bool fast_f64_ = false;  // the GPU's f64 rate is at least half its f32 rate (F32Compute)
+  std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_, specialized_f64_for_f32_;
   std::string kernel_description_ = "generic kernel";
   int last_pinned_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions

@@ -3,6 +3,7 @@
 // instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "common/batch_view.hpp"
 #include "common/entry_checks.hpp"
@@ -73,12 +74,16 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // mapped_io_max_kib: batches whose inputs and outputs take up to this many KiB skip the
     // device copies (the kernel works on pinned host memory). f32_thread_kernel_min_states: f32
     // gradient batches of at least this many states on small models run the one-thread kernel
-    // (0: never). specialize: compile the block kernel for the robot at load (NVRTC; default
+    // (0: never). chunk_min_states, max_chunks: batches larger than one chunk go through the
+    // pipeline in up to max_chunks chunks of at least chunk_min_states states (0: by the model's
+    // size). f32_compute: auto
+    // (default), f32 or f64: what f32 gradient batches compute in (cuda::F32Compute). specialize: compile the block kernel for the robot at load (NVRTC; default
     // true); kernel_cache_dir: where compiled kernels are kept across restarts ("" = not kept;
     // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
-                                           "specialize", "kernel_cache_dir"});
+                                           "chunk_min_states", "max_chunks", "f32_compute", "specialize",
+                                           "kernel_cache_dir"});
         !s)
       return s;
     bool specialize = true;
@@ -95,6 +100,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     std::uint64_t spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block);
     std::uint64_t mapped_max = kernel.mapped_io_max_kib;
     std::uint64_t f32_thread_min = kernel.f32_thread_kernel_min_states;
+    std::uint64_t chunk_min = kernel.chunks.min_states, max_chunks = kernel.chunks.max_chunks;
     if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
     if (Status s = option_uint(options, "threads_per_state", 0, 1024, tps); !s) return s;
     if (Status s = option_uint(options, "states_per_block", 1, 1024, spb); !s) return s;
@@ -102,6 +108,15 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
       return s;
     if (Status s = option_uint(options, "f32_thread_kernel_min_states", 0, std::uint64_t{1} << 40, f32_thread_min); !s)
       return s;
+    if (Status s = option_uint(options, "chunk_min_states", 0, std::uint64_t{1} << 40, chunk_min); !s) return s;
+    if (Status s = option_uint(options, "max_chunks", 1, cuda::kMaxChunks, max_chunks); !s) return s;
+    kernel.chunks = {static_cast<std::size_t>(chunk_min), static_cast<std::size_t>(max_chunks)};
+    if (const char* f32_compute = find_option(options, "f32_compute")) {
+      const std::string_view v(f32_compute);
+      if (v != "auto" && v != "f32" && v != "f64")
+        return invalid_argument("option 'f32_compute' is '" + std::string(v) + "': expected 'auto', 'f32' or 'f64'");
+      kernel.f32_compute = v == "f32" ? cuda::F32Compute::kF32 : v == "f64" ? cuda::F32Compute::kF64 : cuda::F32Compute::kAuto;
+    }
     kernel.block_max_states = static_cast<std::size_t>(block_max);
     kernel.f32_thread_kernel_min_states = static_cast<std::size_t>(f32_thread_min);
     kernel.mapped_io_max_kib = static_cast<std::size_t>(mapped_max);

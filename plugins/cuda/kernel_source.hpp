@@ -10,8 +10,16 @@
 
 namespace rbdgrad::cuda {
 
-/// The program for `model` in f32 (single) or f64, compiled for the GPU architecture sm_<arch>
-/// (90 for compute capability 9.0).
-NvrtcProgram block_kernel_program(const Model& model, bool single, int arch);
+/// What a block kernel computes in, and the scalars of the batches it takes.
+enum class KernelScalars {
+  kF64,
+  kF32,
+  kF64ForF32,  // f32 batches computed in f64 (GPUs whose f64 is fast, cuda_instance.hpp)
+};
+const char* kernel_scalars_name(KernelScalars scalars);  // "f64", "f32", "f64 for f32"
+
+/// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for
+/// compute capability 9.0).
+NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch);
 
 }  // namespace rbdgrad::cuda

@@ -4,7 +4,6 @@
 #include <type_traits>
 
 #include "cuda_device.hpp"
-#include "kernel_source.hpp"
 
 namespace rbdgrad::cuda {
 
@@ -36,7 +35,7 @@ Status load_cubin(const NvrtcOutput& compiled, int device, std::size_t max_share
 
 }  // namespace
 
-Status SpecializedBlockKernel::load(const Model& model, bool single, int device, std::size_t max_shared_bytes,
+Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int device, std::size_t max_shared_bytes,
                                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   const auto start = std::chrono::steady_clock::now();
   int major = 0, minor = 0;
@@ -48,9 +47,9 @@ Status SpecializedBlockKernel::load(const Model& model, bool single, int device,
                              "cudaDeviceGetAttribute");
       !s)
     return s;
-  const NvrtcProgram program = block_kernel_program(model, single, 10 * major + minor);
+  const NvrtcProgram program = block_kernel_program(model, scalars, 10 * major + minor);
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
-  k->single_ = single;
+  k->scalars_ = scalars;
   NvrtcOutput compiled;
   if (Status s = compile_with_cache(program, cache_dir, false, compiled, k->origin_, k->warning_); !s) return s;
   Status loaded = load_cubin(compiled, device, max_shared_bytes, k->library_, k->kernel_);
@@ -69,24 +68,31 @@ SpecializedBlockKernel::~SpecializedBlockKernel() {
   if (library_) cudaLibraryUnload(library_);
 }
 
-template <class S>
-cudaError_t SpecializedBlockKernel::launch(const ModelView<S>& model, const BatchPointers<S>& batch,
+template <class S, class IO>
+cudaError_t SpecializedBlockKernel::launch(const ModelView<S>& model, const BatchPointers<IO>& batch,
                                            const BlockShape& shape, cudaStream_t stream) const {
-  if (single_ != std::is_same_v<S, float>) return cudaErrorInvalidValue;
+  const KernelScalars built_for = std::is_same_v<S, float>  ? KernelScalars::kF32
+                                  : std::is_same_v<IO, float> ? KernelScalars::kF64ForF32
+                                                              : KernelScalars::kF64;
+  if (scalars_ != built_for) return cudaErrorInvalidValue;
   const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
   const dim3 blocks(static_cast<unsigned>((batch.n + per_block - 1) / per_block));
   const dim3 threads(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
   // the kernel's parameters, as block_fused_kernel takes them
   ModelView<S> model_arg = model;
-  BatchPointers<S> batch_arg = batch;
+  BatchPointers<IO> batch_arg = batch;
   void* args[] = {&model_arg, &batch_arg};
   return cudaLaunchKernel(reinterpret_cast<const void*>(kernel_), blocks, threads, args,
                           block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream);
 }
 
-template cudaError_t SpecializedBlockKernel::launch<double>(const ModelView<double>&, const BatchPointers<double>&,
-                                                            const BlockShape&, cudaStream_t) const;
-template cudaError_t SpecializedBlockKernel::launch<float>(const ModelView<float>&, const BatchPointers<float>&,
-                                                           const BlockShape&, cudaStream_t) const;
+template cudaError_t SpecializedBlockKernel::launch<double, double>(const ModelView<double>&,
+                                                                    const BatchPointers<double>&, const BlockShape&,
+                                                                    cudaStream_t) const;
+template cudaError_t SpecializedBlockKernel::launch<float, float>(const ModelView<float>&, const BatchPointers<float>&,
+                                                                  const BlockShape&, cudaStream_t) const;
+template cudaError_t SpecializedBlockKernel::launch<double, float>(const ModelView<double>&,
+                                                                   const BatchPointers<float>&, const BlockShape&,
+                                                                   cudaStream_t) const;
 
 }  // namespace rbdgrad::cuda

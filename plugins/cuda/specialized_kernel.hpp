@@ -11,6 +11,7 @@
 
 #include "block_launch.hpp"
 #include "kernel_cache.hpp"
+#include "kernel_source.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/status.hpp"
 
@@ -18,18 +19,19 @@ namespace rbdgrad::cuda {
 
 class SpecializedBlockKernel {
  public:
-  /// Builds the kernel of `model` in f32 (single) or f64 for `device` (current), its shared memory
-  /// allowed up to `max_shared_bytes`. `cache_dir` as compile_with_cache's dir. Errors: unavailable
+  /// Builds the kernel of `model` in `scalars` for `device` (current), its shared memory allowed up
+  /// to `max_shared_bytes`. `cache_dir` as compile_with_cache's dir. Errors: unavailable
   /// (no NVRTC), internal (compiling or loading failed: the message says which).
-  static Status load(const Model& model, bool single, int device, std::size_t max_shared_bytes,
+  static Status load(const Model& model, KernelScalars scalars, int device, std::size_t max_shared_bytes,
                      const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
   ~SpecializedBlockKernel();
   SpecializedBlockKernel(const SpecializedBlockKernel&) = delete;
   SpecializedBlockKernel& operator=(const SpecializedBlockKernel&) = delete;
 
-  /// As launch_block_fused (block_launch.hpp), S the precision the kernel was built for.
-  template <class S>
-  cudaError_t launch(const ModelView<S>& model, const BatchPointers<S>& batch, const BlockShape& shape,
+  /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
+  /// cudaErrorInvalidValue).
+  template <class S, class IO>
+  cudaError_t launch(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      cudaStream_t stream) const;
 
   KernelOrigin origin() const { return origin_; }
@@ -43,7 +45,7 @@ class SpecializedBlockKernel {
 
   cudaLibrary_t library_ = nullptr;
   cudaKernel_t kernel_ = nullptr;
-  bool single_ = false;
+  KernelScalars scalars_ = KernelScalars::kF64;
   KernelOrigin origin_ = KernelOrigin::kCompiled;
   double seconds_ = 0;
   std::string warning_;

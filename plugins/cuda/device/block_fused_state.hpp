@@ -123,15 +123,16 @@ RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
 
 // Reads the state's inputs q, qd and u into w.q, w.qd, w.u, each by the thread that uses it in the
 // first pass. The kernel does it before it loads the robot's constants, so that the two reads'
-// latencies (the inputs may be host memory, over PCIe) overlap.
-template <class S>
-RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const BatchPointers<S>& b, std::uint64_t state,
+// latencies (the inputs may be host memory, over PCIe) overlap. IO: the batch's scalar type, S or
+// float (an f32 batch computed in f64).
+template <class S, class IO>
+RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const BatchPointers<IO>& b, std::uint64_t state,
                                   const ThreadGroup& g) {
   const std::uint64_t vec = static_cast<std::uint64_t>(n);
   g.for_each(n, [&](int i) {
-    w.q[i] = b.q[state * vec + i];
-    w.qd[i] = b.qd[state * vec + i];
-    w.u[i] = b.u[state * vec + i];
+    w.q[i] = static_cast<S>(b.q[state * vec + i]);
+    w.qd[i] = static_cast<S>(b.qd[state * vec + i]);
+    w.u[i] = static_cast<S>(b.u[state * vec + i]);
   });
 }
 
@@ -139,9 +140,11 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // and status; an inactive group (past the end of the batch) runs on `state` for the syncs' sake and
 // writes nothing. The inputs are in w.q, w.qd and w.u already (block_load_inputs, by the same
 // threads).
-// Model: ModelView<S>, or FixedSizeModelView<S, ...> for a kernel compiled for one robot.
-template <class S, class Model>
-RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<S>& b,
+// Model: ModelView<S>, or FixedSizeModelView<S, ...> for a kernel compiled for one robot. IO: the
+// batch's scalar type (block_load_inputs); an output that leaves IO's range is flagged as not
+// finite.
+template <class S, class Model, class IO>
+RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
   using block::cross_force_at;
@@ -151,7 +154,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   using block::row_dot;
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
-  const S* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
+  const IO* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
   const auto by_n = block::divider_for<Model>(n);
 
   if (g.rank == 0) *w.status = *w.not_finite = 0;
@@ -229,12 +232,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       // force Rl f, moment Rl n + p x (Rl f), Rl = R * link_rotation
       const int r = e - 18;
       const S* lr = m.link_rotation + 9 * i;
-      const S* fl = fext + 6 * i;
-      auto rotated = [&](int row, const S* x) {
+      const IO* fl = fext + 6 * i;
+      auto rotated = [&](int row, const IO* x) {
         S Rl[3];
         for (int b2 = 0; b2 < 3; ++b2)
           Rl[b2] = R[3 * row] * lr[b2] + R[3 * row + 1] * lr[3 + b2] + R[3 * row + 2] * lr[6 + b2];
-        return Rl[0] * x[0] + Rl[1] * x[1] + Rl[2] * x[2];
+        return Rl[0] * static_cast<S>(x[0]) + Rl[1] * static_cast<S>(x[1]) + Rl[2] * static_cast<S>(x[2]);
       };
       S x;
       if (r >= 3) {
@@ -479,14 +482,14 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // d qdd/d u = -M^-1 dc'/du and the other outputs, every entry in parallel; each thread writes
   // its own entries (consecutive items, consecutive addresses) and flags what is not finite
-  S* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
-  S* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
-  S* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
-  S* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
+  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
+  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
+  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
+  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
   g.for_each(n + (want_minv ? 3 : 2) * n * n, [&](int t) {
     S x;
-    S* out;
+    IO* out;
     std::uint64_t at;
     if (t < n) {
       x = w.qdd[t];
@@ -506,8 +509,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       out = out_minv;
       at = state * mat + e;
     }
-    if (!is_finite(x)) *w.not_finite = 1;
-    if (out) out[at] = x;
+    const IO y = static_cast<IO>(x);
+    if (!is_finite(y)) *w.not_finite = 1;
+    if (out) out[at] = y;
   });
   g.sync();
   if (g.rank == 0 && active) {

@@ -24,8 +24,9 @@ RBDGRAD_HD std::size_t block_model_bytes(int nv) {
 __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 #endif
 
-template <class S, class Model>
-__global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<S> batch) {
+// IO: the batch's scalar type, S or (an f32 batch computed in f64) float.
+template <class S, class Model, class IO = S>
+__global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int nv = FixedNv<Model>::value > 0 ? FixedNv<Model>::value : global_model.nv;
   // the robot's constants into shared memory first, by the whole block: the passes read them

@@ -1,5 +1,6 @@
 // Tests for chunk_states (plugins/cuda/cuda_instance.cpp): how a large batch is split into the
-// chunks that are pipelined on two streams.
+// chunks that are pipelined (an upload stream, two compute streams, a download stream), and the
+// options that set the rule.
 #include <gtest/gtest.h>
 
 #include "cuda_instance.hpp"
@@ -7,28 +8,62 @@
 namespace rbdgrad::cuda {
 namespace {
 
-TEST(CudaChunkPlan, SmallBatchesAreOneChunk) {
-  EXPECT_EQ(chunk_states(1, 100000), 1u);
-  EXPECT_EQ(chunk_states(kChunkStates * 2 - 1, 100000), kChunkStates * 2 - 1);
+constexpr int kNv = 7;  // iiwa14: 1024 states per chunk at least
+constexpr ChunkRule kAutomatic{};
+
+TEST(CudaChunkPlan, TheSmallestChunkFollowsTheModelsSize) {
+  EXPECT_EQ(chunk_min_states(7), 1024u);
+  EXPECT_EQ(chunk_min_states(9), 620u);  // 50176 / 81, rounded up
+  EXPECT_EQ(chunk_min_states(32), kMinChunkStates);
+  EXPECT_EQ(chunk_min_states(64), kMinChunkStates);
 }
 
-TEST(CudaChunkPlan, OnePassIsSplitInUpToFourChunks) {
-  EXPECT_EQ(chunk_states(2 * kChunkStates, 100000), kChunkStates);
-  EXPECT_EQ(chunk_states(3 * kChunkStates + 5, 100000), kChunkStates + 2);  // 3 chunks, the last one shorter
-  EXPECT_EQ(chunk_states(65536, 270336), 16384u);
-  EXPECT_EQ(chunk_states(100 * kChunkStates, 1000000), 25 * kChunkStates);  // never more than 4
+TEST(CudaChunkPlan, SmallBatchesAreOneChunk) {
+  EXPECT_EQ(chunk_states(1, 100000, kAutomatic, kNv), 1u);
+  EXPECT_EQ(chunk_states(2047, 100000, kAutomatic, kNv), 2047u);
+  EXPECT_EQ(chunk_states(127, 100000, kAutomatic, 32), 127u);
+}
+
+TEST(CudaChunkPlan, OnePassIsSplitInUpToEightChunks) {
+  EXPECT_EQ(chunk_states(2048, 100000, kAutomatic, kNv), 1024u);
+  EXPECT_EQ(chunk_states(3 * 1024 + 5, 100000, kAutomatic, kNv), 1024u + 2);  // 3 chunks, the last one shorter
+  EXPECT_EQ(chunk_states(65536, 270336, kAutomatic, kNv), 8192u);
+  EXPECT_EQ(chunk_states(1024, 100000, kAutomatic, 32), 128u);
+  EXPECT_EQ(chunk_states(100 * 8192, 1000000, kAutomatic, kNv), 100u * 1024);  // never more than 8
+}
+
+TEST(CudaChunkPlan, TheRuleSetsTheSmallestChunkAndTheMostChunks) {
+  const ChunkRule four_of_8192{8192, 4};
+  EXPECT_EQ(chunk_states(2 * 8192 - 1, 100000, four_of_8192, kNv), 2u * 8192 - 1);
+  EXPECT_EQ(chunk_states(65536, 270336, four_of_8192, kNv), 16384u);
+  EXPECT_EQ(chunk_states(65536, 270336, {1, 1}, kNv), 65536u);
+  EXPECT_EQ(chunk_states(4096, 100000, {100, 8}, kNv), 512u);
 }
 
 TEST(CudaChunkPlan, SeveralPassesAreSplitAtWholePasses) {
-  // talos_reduced on an H200: 7552 slots, 9 passes for 65536 states -> 3 passes per chunk
-  EXPECT_EQ(chunk_states(65536, 7552), 3u * 7552);
-  EXPECT_EQ(chunk_states(2 * 7552, 7552), 7552u);
-  EXPECT_EQ(chunk_states(2 * 7552 + 1, 7552), 7552u);  // 3 passes, 3 chunks
+  // talos_reduced on an H200: 7552 slots, 9 passes for 65536 states -> 2 passes per chunk (5 chunks)
+  EXPECT_EQ(chunk_states(65536, 7552, kAutomatic, 32), 2u * 7552);
+  EXPECT_EQ(chunk_states(65536, 7552, {1, 4}, 32), 3u * 7552);
+  EXPECT_EQ(chunk_states(2 * 7552, 7552, kAutomatic, 32), 7552u);
+  EXPECT_EQ(chunk_states(2 * 7552 + 1, 7552, kAutomatic, 32), 7552u);  // 3 passes, 3 chunks
   for (std::size_t n : {7553u, 20000u, 65536u, 100001u}) {
-    const std::size_t chunk = chunk_states(n, 7552);
+    const std::size_t chunk = chunk_states(n, 7552, kAutomatic, 32);
     EXPECT_EQ(chunk % 7552, 0u) << n;
     EXPECT_LE((n + chunk - 1) / chunk, kMaxChunks) << n;
   }
+}
+
+TEST(CudaChunkPlan, OptionsOutsideTheRangeAreRefused) {
+  KernelOptions options;
+  EXPECT_TRUE(check_kernel_options(options));
+  options.chunks = {1024, 0};
+  EXPECT_FALSE(check_kernel_options(options));
+  options.chunks = {1024, kMaxChunks + 1};
+  const Status s = check_kernel_options(options);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("1 to " + std::to_string(kMaxChunks) + " chunks"), std::string::npos) << s.message();
+  options.chunks = {1, kMaxChunks};
+  EXPECT_TRUE(check_kernel_options(options));
 }
 
 }  // namespace

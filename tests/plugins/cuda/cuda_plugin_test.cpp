@@ -110,6 +110,12 @@ TEST(CudaPlugin, OptionsAreChecked) {
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   EXPECT_NE(e->message.find("option 'specialize' is 'yes'"), std::string::npos) << e->message;
+  for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}}) {
+    create(api(), iiwa().desc(), {{name, value}}, &e);
+    ASSERT_TRUE(e) << name << "=" << value;
+    EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+    EXPECT_NE(e->message.find("option '" + std::string(name) + "'"), std::string::npos) << e->message;
+  }
   SKIP_WITHOUT_GPU();
   // a small workspace still computes, with fewer resident thread slots
   EXPECT_NE(create(api(), iiwa().desc(), {{"workspace_mib", "1"}}, &e), nullptr) << (e ? e->message : "");
@@ -299,7 +305,7 @@ TEST(CudaLargeBatch, TalosReducedF64) {
   check_large_batch<double>("talos_reduced");
 }
 
-// A batch large enough to be pipelined in chunks (CudaInstance::kChunkStates), of a size that does
+// A batch large enough to be pipelined in chunks (chunk_states), of a size that does
 // not split evenly, with every input array (external forces, a caller's M^-1) and every output.
 TEST(CudaLargeBatch, UnevenChunksWithEveryInputAndOutput) {
   SKIP_WITHOUT_GPU();
@@ -310,6 +316,23 @@ TEST(CudaLargeBatch, UnevenChunksWithEveryInputAndOutput) {
   const std::vector<StateInputs> states = random_inputs(model, 3 * 8192 + 5, 13);
   run_and_compare<double>(instance.get(), model, states, kOutputCases[2], true,
                           "iiwa14 f64 n=24581 " + std::string(kOutputCases[2].name));
+}
+
+// The most chunks the pipeline takes, each small and the last one shorter, with every input and
+// output: each chunk's kernel waits for its own upload only and each download for its own
+// kernel, so a wrong order shows as outputs of another chunk or the poison left in place.
+TEST(CudaLargeBatch, EightSmallChunks) {
+  SKIP_WITHOUT_GPU();
+  const Model model = robot_model("iiwa14");
+  const plugin::ModelDesc desc(model);
+  InstancePtr instance =
+      create(api(), desc.desc(), {{"chunk_min_states", "100"}, {"max_chunks", "8"}, {"mapped_io_max_kib", "0"}});
+  ASSERT_TRUE(instance);
+  const std::vector<StateInputs> states = random_inputs(model, 8 * 125 + 3, 19);
+  for (const OutputCase& outputs : kOutputCases)
+    run_and_compare<double>(instance.get(), model, states, outputs, true,
+                            "iiwa14 f64 n=1003 in 8 chunks " + std::string(outputs.name));
+  run_and_compare<float>(instance.get(), model, states, kOutputCases[2], true, "iiwa14 f32 n=1003 in 8 chunks");
 }
 
 // A small workspace: few resident thread slots, so each thread runs many states and a large batch

@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <cstdio>
 #include <memory>
+#include <random>
 #include <type_traits>
 #include <vector>
 
@@ -83,8 +85,8 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
 
-// Large f32 batches of small models go to the one-thread kernel (measured faster there); f64
-// batches and large models stay on the block kernel.
+// Large f32 batches of small models computed in f32 go to the one-thread kernel (measured faster
+// there); f64 batches, large models and f32 batches computed in f64 stay on the block kernel.
 TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
   for (const char* robot : {"iiwa14", "talos_reduced"}) {
@@ -93,6 +95,7 @@ TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
     if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
     KernelOptions options;
     options.f32_thread_kernel_min_states = 64;  // the rule at a size a test can afford
+    options.f32_compute = F32Compute::kF32;
     ASSERT_TRUE(instance->set_kernel_options(options));
     const bool small_model = model.nv <= kThreadKernelMaxNv;
     auto below = equal_states<float>(model.nv, 63);
@@ -110,11 +113,100 @@ TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
     rbdgrad_batch b_f64 = batch_of(f64, gradient);
     ASSERT_TRUE(instance->compute(&b_f64));
     EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": f64";
+    options.f32_compute = F32Compute::kF64;
+    ASSERT_TRUE(instance->set_kernel_options(options));
+    ASSERT_TRUE(instance->compute(&b_at));
+    EXPECT_TRUE(instance->last_used_block_kernel()) << robot << ": computed in f64";
     options.f32_thread_kernel_min_states = 0;  // never
+    options.f32_compute = F32Compute::kF32;
     ASSERT_TRUE(instance->set_kernel_options(options));
     ASSERT_TRUE(instance->compute(&b_at));
     EXPECT_TRUE(instance->last_used_block_kernel()) << robot;
   }
+}
+
+// An f32 batch computed in f64 (F32Compute) reads f32 inputs and writes f64 results rounded to
+// f32: equal to the f64 batch of the same inputs to f32 rounding, where f32 arithmetic is off by
+// up to about cond(M) times that. auto computes in f64 exactly where the GPU's f64 is fast.
+TEST(CudaKernelChoice, F32BatchesComputedInF64AreTheF64ResultsRounded) {
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD |
+                                 RBDGRAD_OUTPUT_MINV;
+  for (const char* robot : {"iiwa14", "talos_reduced"}) {
+    const Model model = testing::load_embedded(robot);
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    (void)instance->specialize("");  // the robot-specific kernels where NVRTC is present, else the generic ones
+    std::printf("%s: %s\n", robot, instance->kernel_description().c_str());
+    for (const std::size_t n : {7u, 1000u}) {  // mapped I/O and copies
+      testing::BatchArrays<float> single(n, model.nv);
+      testing::BatchArrays<double> wide(n, model.nv);
+      std::mt19937 rng(static_cast<unsigned>(n));
+      std::uniform_real_distribution<float> u(-1.5f, 1.5f);
+      for (std::size_t e = 0; e < single.q.size(); ++e) {
+        single.q[e] = u(rng), single.qd[e] = u(rng), single.u[e] = 10 * u(rng);
+        wide.q[e] = single.q[e], wide.qd[e] = single.qd[e], wide.u[e] = single.u[e];
+      }
+      rbdgrad_batch bw = batch_of(wide, gradient);
+      ASSERT_TRUE(instance->compute(&bw));
+      double worst_in_f64 = 0, worst_in_f32 = 0;
+      for (const F32Compute compute : {F32Compute::kF64, F32Compute::kF32}) {
+        KernelOptions options;
+        options.f32_compute = compute;
+        ASSERT_TRUE(instance->set_kernel_options(options));
+        testing::BatchArrays<float> run = single;
+        rbdgrad_batch b = batch_of(run, gradient);
+        ASSERT_TRUE(instance->compute(&b));
+        EXPECT_EQ(instance->last_computed_f32_in_f64(), compute == F32Compute::kF64) << robot;
+        EXPECT_TRUE(instance->last_used_block_kernel()) << robot;
+        double& worst = compute == F32Compute::kF64 ? worst_in_f64 : worst_in_f32;
+        for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_MINV, RBDGRAD_OUTPUT_DQDD_DQ,
+                                         RBDGRAD_OUTPUT_DQDD_DQD}) {
+          const std::vector<double>& want = wide.out(flag);
+          const std::vector<float>& got = run.out(flag);
+          for (std::size_t e = 0; e < want.size(); ++e)
+            worst = std::max(worst, std::abs(got[e] - want[e]) / (1e-3 + std::abs(want[e])));
+        }
+        for (std::int32_t s : run.state_status) ASSERT_EQ(s, 0) << robot;
+      }
+      std::printf("%s, %zu states: worst relative difference from f64, computed in f64 %.2e, in f32 %.2e\n", robot,
+                  n, worst_in_f64, worst_in_f32);
+      // rounding to f32 is within 2^-24 relative; the margin is for the 1e-3 floor's neighbours
+      EXPECT_LE(worst_in_f64, 1.2e-7) << robot << ", " << n << " states";
+      EXPECT_GT(worst_in_f32, worst_in_f64) << robot << ", " << n << " states";
+    }
+    KernelOptions automatic;
+    ASSERT_TRUE(instance->set_kernel_options(automatic));
+    int ratio = 0;
+    ASSERT_EQ(cudaDeviceGetAttribute(&ratio, cudaDevAttrSingleToDoublePrecisionPerfRatio, 0), cudaSuccess);
+    EXPECT_EQ(instance->f32_in_f64(), ratio <= kFastF64MaxRatio) << "f32 to f64 rate ratio " << ratio;
+  }
+}
+
+// A block-kernel batch is chunked by the rule alone; a one-thread-kernel batch in whole passes of
+// the workspace's slots (which the block kernel does not use), and both compute the same.
+TEST(CudaKernelChoice, OnlyTheOneThreadKernelIsChunkedByTheWorkspace) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::unique_ptr<CudaInstance> instance;
+  if (Status s = CudaInstance::create(model, 0, instance, std::size_t{1} << 20); !s)
+    GTEST_SKIP() << "no GPU: " << s.message();
+  ASSERT_LT(instance->slots(), 4096u / 8) << "a 1 MiB workspace holds few slots";
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+  auto block = equal_states(model.nv, 4096);
+  rbdgrad_batch b = batch_of(block, gradient);
+  ASSERT_TRUE(instance->compute(&b));
+  EXPECT_TRUE(instance->last_used_block_kernel());
+  EXPECT_EQ(instance->last_chunks(), 4096u / chunk_min_states(model.nv));
+  KernelOptions options;
+  options.block_max_states = 0;
+  ASSERT_TRUE(instance->set_kernel_options(options));
+  auto thread = equal_states(model.nv, 4096);
+  b = batch_of(thread, gradient);
+  ASSERT_TRUE(instance->compute(&b));
+  EXPECT_FALSE(instance->last_used_block_kernel());
+  EXPECT_EQ(instance->last_chunks(), kMaxChunks);
+  const std::vector<double>& dq = block.out(RBDGRAD_OUTPUT_DQDD_DQ);
+  for (std::size_t e = 0; e < dq.size(); ++e)
+    ASSERT_NEAR(dq[e], thread.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e]))) << e;
 }
 
 TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {

@@ -56,37 +56,43 @@ cuda::NvrtcProgram tiny_program(const std::string& tag) {
 
 TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   const Model model = load_embedded("iiwa14");
-  const cuda::NvrtcProgram f64 = cuda::block_kernel_program(model, false, 90);
+  const cuda::NvrtcProgram f64 = cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90);
   EXPECT_EQ(f64.name_expression,
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>>");
   EXPECT_THAT(f64.source, HasSubstr("#include \"block_kernel_entry.hpp\""));
   EXPECT_THAT(f64.options, ::testing::Contains("--gpu-architecture=sm_90"));
-  const cuda::NvrtcProgram f32 = cuda::block_kernel_program(load_embedded("talos_reduced"), true, 90);
+  const cuda::NvrtcProgram f32 = cuda::block_kernel_program(load_embedded("talos_reduced"), cuda::KernelScalars::kF32, 90);
   EXPECT_EQ(f32.name_expression,
             "rbdgrad::cuda::block_fused_kernel<float, rbdgrad::cuda::FixedSizeModelView<float, 32, " +
                 std::to_string(load_embedded("talos_reduced").max_depth()) + ">>");
+  // an f32 batch computed in f64: the batch's scalars as the third argument
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90).name_expression,
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float>");
   bool entry = false;
   for (const cuda::EmbeddedHeader& h : f64.headers) entry |= std::string(h.name) == "block_kernel_entry.hpp";
   EXPECT_TRUE(entry) << "the entry header is not embedded";
   // a robot's name from a URDF cannot end the source's comment line
   Model odd = model;
   odd.name = "evil\n#error injected";
-  EXPECT_THAT(cuda::block_kernel_program(odd, false, 90).source, ::testing::Not(HasSubstr("\n#error")));
+  EXPECT_THAT(cuda::block_kernel_program(odd, cuda::KernelScalars::kF64, 90).source, ::testing::Not(HasSubstr("\n#error")));
 }
 
-// Every shipped robot's kernel, both precisions, compiles with NVRTC for sm_90.
+// Every shipped robot's kernel, both precisions and f32 batches in f64, compiles with NVRTC for
+// sm_90.
 TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
   SKIP_WITHOUT_NVRTC();
   for (std::string_view name : embedded_robot_names()) {
     const Model model = load_embedded(std::string(name));
-    for (bool single : {false, true}) {
+    for (const cuda::KernelScalars scalars :
+         {cuda::KernelScalars::kF64, cuda::KernelScalars::kF32, cuda::KernelScalars::kF64ForF32}) {
       const auto start = std::chrono::steady_clock::now();
       cuda::NvrtcOutput out;
-      const Status s = cuda::nvrtc_compile(cuda::block_kernel_program(model, single, 90), out);
-      ASSERT_TRUE(s.is_ok()) << name << (single ? " f32" : " f64") << ": " << s.message();
+      const Status s = cuda::nvrtc_compile(cuda::block_kernel_program(model, scalars, 90), out);
+      ASSERT_TRUE(s.is_ok()) << name << " " << cuda::kernel_scalars_name(scalars) << ": " << s.message();
       EXPECT_GT(out.cubin.size(), 1000u) << name;
       EXPECT_THAT(out.kernel_symbol, HasSubstr("block_fused_kernel")) << name;
-      std::printf("%s %s: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(), single ? "f32" : "f64",
+      std::printf("%s %s: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(),
+                  cuda::kernel_scalars_name(scalars),
                   out.cubin.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     }
   }
@@ -105,14 +111,15 @@ TEST(KernelSource, CompileErrorsCarryNvrtcsLog) {
 
 TEST(KernelCache, KeysDifferWithEveryInput) {
   const Model model = load_embedded("iiwa14");
-  const cuda::NvrtcProgram p = cuda::block_kernel_program(model, false, 90);
+  const cuda::NvrtcProgram p = cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90);
   const std::string key = cuda::kernel_cache_key(p, "13.0");
   EXPECT_EQ(key.size(), 16u);
-  EXPECT_EQ(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, false, 90), "13.0"));
+  EXPECT_EQ(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90), "13.0"));
   EXPECT_NE(key, cuda::kernel_cache_key(p, "13.1"));
-  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, true, 90), "13.0"));
-  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, false, 100), "13.0"));
-  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(load_embedded("panda"), false, 90), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF32, 90), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 100), "13.0"));
+  EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(load_embedded("panda"), cuda::KernelScalars::kF64, 90), "13.0"));
   cuda::NvrtcProgram other_header = p;
   other_header.headers.pop_back();
   EXPECT_NE(key, cuda::kernel_cache_key(other_header, "13.0"));

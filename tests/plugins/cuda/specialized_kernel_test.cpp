@@ -38,19 +38,24 @@ testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
 }
 
 template <class S>
-void compare_kernels(CudaInstance& instance, const std::string& robot, int nv) {
+void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
+                     F32Compute f32_compute = F32Compute::kF32) {
   const std::uint32_t precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
   // f64: the two builds differ only in constant folding and unrolling, which may contract other
   // multiply-adds; f32 the same, at its own rounding
   const double tolerance = std::is_same_v<S, float> ? 2e-4 : 1e-11;
   for (const std::uint32_t input : {RBDGRAD_INPUT_TAU, RBDGRAD_INPUT_QDD}) {
     for (const std::size_t n : {1u, 7u, 33u, 1000u}) {
-      const std::string where = robot + (std::is_same_v<S, float> ? " f32" : " f64") +
+      const std::string where = robot +
+                                (std::is_same_v<S, float>
+                                     ? (f32_compute == F32Compute::kF64 ? " f32 computed in f64" : " f32")
+                                     : " f64") +
                                 (input == RBDGRAD_INPUT_TAU ? " from tau" : " from qdd") + ", " + std::to_string(n) +
                                 " states";
       auto generic = random_states<S>(nv, n, static_cast<unsigned>(n) + input);
       auto specific = generic;
       KernelOptions options;
+      options.f32_compute = f32_compute;
       options.robot_specific = false;
       ASSERT_TRUE(instance.set_kernel_options(options));
       rbdgrad_batch b = generic.batch(precision, input, kGradient, false, false);
@@ -93,6 +98,8 @@ TEST(CudaRobotSpecificKernel, MatchesTheGenericKernelOnEveryRobot) {
     std::printf("%s: %s\n", std::string(name).c_str(), instance->kernel_description().c_str());
     compare_kernels<double>(*instance, std::string(name), model.nv);
     compare_kernels<float>(*instance, std::string(name), model.nv);
+    // the kernel for f32 batches computed in f64 is compiled where auto uses it
+    if (instance->f32_in_f64()) compare_kernels<float>(*instance, std::string(name), model.nv, F32Compute::kF64);
   }
 }
 
