@@ -47,15 +47,16 @@ void* caller_output(const rbdgrad_batch& b, int index) {
   return plugin::output_pointer(b, 1u << index);
 }
 
-// Whether the caller's array is page-locked host memory (cudaMallocHost, cudaHostRegister): the
-// copy engines then move it directly, without the staging block.
-bool is_pinned(const void* p) {
+// The device's address of the caller's array if it is page-locked host memory (cudaMallocHost,
+// cudaHostRegister), else null: the copy engines then move it directly, without the staging
+// block, and a kernel on mapped memory reads or writes it in place.
+unsigned char* pinned_device_address(const void* p) {
   cudaPointerAttributes attributes{};
   if (cudaPointerGetAttributes(&attributes, p) != cudaSuccess) {
     cudaGetLastError();
-    return false;
+    return nullptr;
   }
-  return attributes.type == cudaMemoryTypeHost;
+  return attributes.type == cudaMemoryTypeHost ? static_cast<unsigned char*>(attributes.devicePointer) : nullptr;
 }
 
 }  // namespace
@@ -308,14 +309,22 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   const std::size_t chunk = mapped ? n : chunk_states(n, block ? n : slots_, kernel_.chunks, model_.nv);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const bool pipelined = chunks > 1;
-  // larger batches: the caller's pinned arrays go straight to and from the device (a check costs
-  // about a microsecond, and staging a small batch hardly more)
+  // The caller's pinned arrays go straight to and from the device, or with mapped memory are the
+  // kernel's own inputs and outputs; a check costs about a microsecond, so mapped batches smaller
+  // than kMappedPinnedCheckMinBytes are staged unchecked.
+  unsigned char* in_device[5] = {};
+  unsigned char* out_device[kOutputCount] = {};
   bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
   bool any_pinned = false;
-  if (!mapped) {
-    for (int k = 0; k < 5; ++k) any_pinned |= in_pinned[k] = inputs[k].from && is_pinned(inputs[k].from);
-    for (int f = 0; f < kOutputCount; ++f)
-      any_pinned |= out_pinned[f] = (b.outputs & (1u << f)) && is_pinned(caller_output(b, f));
+  if (!mapped || in_layout.size() + out_layout.size() >= kMappedPinnedCheckMinBytes) {
+    for (int k = 0; k < 5; ++k) {
+      if (inputs[k].from) in_device[k] = pinned_device_address(inputs[k].from);
+      any_pinned |= in_pinned[k] = in_device[k] != nullptr;
+    }
+    for (int f = 0; f < kOutputCount; ++f) {
+      if (b.outputs & (1u << f)) out_device[f] = pinned_device_address(caller_output(b, f));
+      any_pinned |= out_pinned[f] = out_device[f] != nullptr;
+    }
   }
   // a staged batch in one chunk goes over in one copy each way
   const bool one_copy = chunks == 1 && !mapped && !any_pinned;
@@ -359,7 +368,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
             !s)
           return fail(s);
       }
-      *device_inputs[k] = reinterpret_cast<const S*>(d_in + at);
+      *device_inputs[k] = reinterpret_cast<const S*>(mapped && in_pinned[k] ? in_device[k] + a * in_per_state[k] * sizeof(S)
+                                                                            : d_in + at);
     }
     if (one_copy) {
       if (Status s = cuda_status(cudaMemcpyAsync(d_in, h_in, in_layout.size(), cudaMemcpyHostToDevice, stream),
@@ -369,7 +379,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     }
     for (int f = 0; f < kOutputCount; ++f)
       if (b.outputs & (1u << f))
-        p.out[f] = reinterpret_cast<S*>(d_out + out_at[f] + a * out_per_state[f] * sizeof(S));
+        p.out[f] = reinterpret_cast<S*>(mapped && out_pinned[f] ? out_device[f] + a * out_per_state[f] * sizeof(S)
+                                                                : d_out + out_at[f] + a * out_per_state[f] * sizeof(S));
     p.status = reinterpret_cast<std::uint32_t*>(d_out + status_at) + a;
 
     // the kernel once its inputs are there; the first kernel starts the clock; the one-thread

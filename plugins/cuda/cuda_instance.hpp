@@ -69,6 +69,10 @@ inline constexpr int kThreadKernelMaxNv = 16;
 // states (243 KiB in f64) and slower for talos_reduced from 32 states (548 KiB), see
 // docs/benchmarks/cuda.md.
 inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
+// Mapped batches of at least this many bytes (inputs and outputs) check whether the caller's
+// arrays are pinned, so that the kernel works on them in place instead of staging them: the
+// checks cost about 1 us each, a staging copy of this size about as much as all of them.
+inline constexpr std::size_t kMappedPinnedCheckMinBytes = 64 * 1024;
 
 /// What an f32 gradient batch computes in (the plugin's option f32_compute: auto, f32, f64). In
 /// f64 the block kernel reads the f32 inputs and rounds its results to f32 as it writes them:
@@ -147,7 +151,8 @@ class CudaInstance {
   bool last_computed_f32_in_f64() const { return last_f32_in_f64_; }
   /// Whether f32 gradient batches compute in f64 with the current options on this GPU.
   bool f32_in_f64() const;
-  /// How many of the caller's arrays the last successful compute() moved without staging (pinned).
+  /// How many of the caller's arrays the last successful compute() moved without staging (pinned),
+  /// or, with mapped memory, the kernel read or wrote in place.
   int last_pinned_arrays() const { return last_pinned_; }
 
   int device() const { return device_; }

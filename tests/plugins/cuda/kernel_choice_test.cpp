@@ -223,14 +223,17 @@ TEST(CudaKernelChoice, TooMuchSharedMemoryFallsBackToTheOneThreadKernel) {
   for (std::int32_t s : run.state_status) EXPECT_EQ(s, 0);
 }
 
-// A caller whose arrays are pinned (cudaMallocHost) gets them moved without staging, in one chunk
-// and in several, and the same numbers as a caller with ordinary memory.
+// A caller whose arrays are pinned (cudaMallocHost) gets them moved without staging, or worked on
+// in place with mapped memory, in one chunk and in several, and the same numbers as a caller with
+// ordinary memory.
 TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
   const Model model = testing::load_embedded("iiwa14");
   std::unique_ptr<CudaInstance> instance;
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
-  for (const std::size_t n : {1000u, 3 * 8192u + 7}) {
+  // 16 and 200 states: mapped memory, the smaller one staged unchecked (kMappedPinnedCheckMinBytes),
+  // the larger one worked on in place; 1000: copies; 3 * 8192 + 7: chunks
+  for (const std::size_t n : {16u, 200u, 1000u, 3 * 8192u + 7}) {
     auto pageable = equal_states(model.nv, n);
     for (std::size_t e = 0; e < pageable.q.size(); ++e) pageable.q[e] = 0.001 * static_cast<double>(e % 1000);
     const rbdgrad_batch pageable_batch = batch_of(pageable, gradient);
@@ -263,7 +266,8 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
     for (std::size_t e = 0; e < n * model.nv * model.nv; ++e) dq[e] = dqd[e] = std::nan("");
     for (std::size_t e = 0; e < n * model.nv; ++e) qdd[e] = std::nan("");
     ASSERT_TRUE(instance->compute(&b));
-    EXPECT_EQ(instance->last_pinned_arrays(), 6) << n << " states";
+    EXPECT_EQ(instance->last_used_mapped_io(), n <= 200) << n << " states";
+    EXPECT_EQ(instance->last_pinned_arrays(), n == 16 ? 0 : 6) << n << " states";
     for (std::size_t e = 0; e < want_dq.size(); ++e) {
       ASSERT_EQ(dq[e], want_dq[e]) << n << " states, element " << e;
       ASSERT_EQ(dqd[e], want_dqd[e]) << n << " states, element " << e;
