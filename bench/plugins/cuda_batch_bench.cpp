@@ -162,6 +162,13 @@ Kernel f32_arithmetic() {
   k.options.f32_compute = rbdgrad::cuda::F32Compute::kF32;
   return k;
 }
+// the defaults with every batch on mapped memory (no device copies; a pinned caller's arrays are
+// the kernel's own inputs and outputs)
+Kernel mapped_io() {
+  Kernel k{"mapped", {}};
+  k.options.mapped_io_max_kib = std::size_t{1} << 30;
+  return k;
+}
 // the defaults with batches beyond one chunk in `chunks` chunks of any size (1: no pipeline)
 Kernel pipeline(std::size_t chunks) {
   Kernel k{std::to_string(chunks) + "chunks", {}};
@@ -286,6 +293,12 @@ const bool registered = [] {
         add<float>("cuda_pipeline", robot, n, pipeline(chunks));
         add<double>("cuda_pipeline", robot, n, pipeline(chunks));
       }
+  // cuda_mapped: mapped memory at sizes where the defaults copy
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (std::size_t n : {64, 256, 1024, 4096, 16384, 65536}) {
+      add<float>("cuda_mapped", robot, n, mapped_io());
+      add<double>("cuda_mapped", robot, n, mapped_io());
+    }
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const auto& [tps, spb] : shapes)
