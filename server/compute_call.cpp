@@ -69,10 +69,23 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   // a request with an id is named by it, in messages as in RequestBatch's
   prefix_ = request_.request_id().empty() ? stream_prefix : "request '" + request_.request_id() + "': ";
 
-  const ServedModel* model = context.models().find(request_.model());
-  if (model == nullptr) {
-    return not_found(prefix_ + "model '" + request_.model() + "' is not loaded (loaded models: " +
-                     context.models().names() + ")");
+  // a scene: its model, and the request made into one of that model (apply_scene)
+  const ServedModel* model = nullptr;
+  if (!request_.scene().empty()) {
+    model = context.models().find_scene(request_.scene());
+    if (model == nullptr) {
+      const std::string& scenes = context.models().scene_names();
+      return not_found(prefix_ + "scene '" + request_.scene() + "' is not configured (scenes: " +
+                       (scenes.empty() ? std::string("none") : scenes) + ")");
+    }
+    if (Status s = apply_scene(*model->scene, model->name, model->model.nv, request_); !s)
+      return with_prefix(prefix_, s);
+  } else {
+    model = context.models().find(request_.model());
+    if (model == nullptr) {
+      return not_found(prefix_ + "model '" + request_.model() + "' is not loaded (loaded models: " +
+                       context.models().names() + ")");
+    }
   }
   std::string_view backend;
   if (!backend_name(request_.backend(), backend)) {
@@ -306,7 +319,8 @@ void ComputeCall::record() const {
 void ComputeCall::record_refusal(const Status& refusal) const {
   if (context_ == nullptr || context_->metrics() == nullptr) return;
   RequestRecord r;
-  const ServedModel* model = context_->models().find(request_.model());
+  const ServedModel* model = request_.scene().empty() ? context_->models().find(request_.model())
+                                                     : context_->models().find_scene(request_.scene());
   if (model != nullptr) r.model = model->name;
   r.code = refusal.code();
   r.states = request_.num_states();

@@ -166,6 +166,70 @@ class Parser {
     return Status::ok();
   }
 
+  Status parse_scene(const std::string& key, const YAML::Node& node, SceneConfig& out) const {
+    if (Status s = require_map(key, node); !s) return s;
+    if (Status s = check_keys(key, node, {"name", "model", "locked_joints", "gravity", "force_links", "outputs", "minv"});
+        !s)
+      return s;
+    for (const char* required : {"name", "model"}) {
+      if (!node[required]) return error_at(key, node, std::string("a scene needs a '") + required + "'");
+    }
+    if (Status s = get_string(key + ".name", node["name"], out.name); !s) return s;
+    if (out.name.empty()) return error_at(key + ".name", node["name"], "must not be empty");
+    if (Status s = get_string(key + ".model", node["model"], out.model); !s) return s;
+    const YAML::Node locked = node["locked_joints"];
+    if (locked && !locked.IsNull()) {
+      if (!locked.IsMap()) return error_at(key + ".locked_joints", locked, "expected a map of joint name: value");
+      for (const auto& entry : locked) {
+        const std::string joint = entry.first.as<std::string>();
+        double value = 0;
+        if (Status s = get_double(key + ".locked_joints." + joint, entry.second, value); !s) return s;
+        out.locked_joints.emplace_back(joint, value);
+      }
+    }
+    if (const YAML::Node g = node["gravity"]) {
+      if (!g.IsScalar() || (g.Scalar() != "true" && g.Scalar() != "false"))
+        return error_at(key + ".gravity", g, "expected true or false");
+      out.gravity = g.Scalar() == "true";
+    }
+    const auto strings = [&](const char* name, std::vector<std::string>& list) -> Status {
+      const YAML::Node n = node[name];
+      if (!n || n.IsNull()) return Status::ok();
+      if (!n.IsSequence()) return error_at(key + "." + name, n, "expected a list of names");
+      list.clear();
+      for (std::size_t i = 0; i < n.size(); ++i) {
+        std::string v;
+        if (Status s = get_string(key + "." + name + "[" + std::to_string(i) + "]", n[i], v); !s) return s;
+        list.push_back(std::move(v));
+      }
+      return Status::ok();
+    };
+    if (Status s = strings("force_links", out.force_links); !s) return s;
+    if (Status s = strings("outputs", out.outputs); !s) return s;
+    if (node["minv"]) {
+      if (Status s = get_string(key + ".minv", node["minv"], out.minv); !s) return s;
+      if (out.minv != "computed" && out.minv != "supplied")
+        return error_at(key + ".minv", node["minv"], "expected 'computed' or 'supplied', got '" + out.minv + "'");
+    }
+    return Status::ok();
+  }
+
+  Status parse_scenes(const YAML::Node& node, std::vector<SceneConfig>& out) const {
+    out.clear();
+    if (node.IsNull()) return Status::ok();
+    if (!node.IsSequence()) return error_at("scenes", node, "expected a list");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string key = "scenes[" + std::to_string(i) + "]";
+      SceneConfig scene;
+      if (Status s = parse_scene(key, node[i], scene); !s) return s;
+      if (!names.insert(scene.name).second)
+        return error_at(key + ".name", node[i]["name"], "duplicate scene name '" + scene.name + "'");
+      out.push_back(std::move(scene));
+    }
+    return Status::ok();
+  }
+
   Status parse_plugins(const YAML::Node& node, std::vector<PluginConfig>& out) const {
     out.clear();
     if (node.IsNull()) return Status::ok();
@@ -284,7 +348,7 @@ class Parser {
     if (root.IsNull()) return Status::ok();
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
-                              {"listen", "models", "plugins", "workers", "inline_max_states",
+                              {"listen", "models", "scenes", "plugins", "workers", "inline_max_states",
                                "fixed_point_fallback", "limits", "scheduler", "metrics", "log_level"});
         !s) {
       return s;
@@ -294,6 +358,9 @@ class Parser {
     }
     if (root["models"]) {
       if (Status s = parse_models(root["models"], out.models); !s) return s;
+    }
+    if (root["scenes"]) {
+      if (Status s = parse_scenes(root["scenes"], out.scenes); !s) return s;
     }
     if (root["plugins"]) {
       if (Status s = parse_plugins(root["plugins"], out.plugins); !s) return s;
@@ -450,6 +517,14 @@ std::string describe(const ServerConfig& cfg) {
       os << ", gravity [" << (*m.gravity)[0] << ", " << (*m.gravity)[1] << ", " << (*m.gravity)[2]
          << "]";
     }
+    os << "\n";
+  }
+  if (!cfg.scenes.empty()) os << "scenes (" << cfg.scenes.size() << "):\n";
+  for (const SceneConfig& sc : cfg.scenes) {
+    os << "  " << sc.name << ": model " << sc.model << ", " << sc.locked_joints.size() << " joint(s) locked, gravity "
+       << (sc.gravity ? "on" : "off") << ", " << sc.force_links.size() << " force link(s), M^-1 " << sc.minv
+       << ", outputs";
+    for (const std::string& o : sc.outputs) os << " " << o;
     os << "\n";
   }
   os << "plugins (" << cfg.plugins.size() << ", plus the built-in CPU backend):\n";

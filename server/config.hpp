@@ -44,6 +44,28 @@ struct ModelConfig {
   bool operator==(const ModelConfig&) const = default;
 };
 
+// A scene (issue 8): a configured model reduced for one fixed problem and served as a model of its
+// own; requests name it with ComputeRequest.scene. Registered at start-up (server/scene.hpp).
+struct SceneConfig {
+  // Name requests use. Required, unique among scenes and models. No default.
+  std::string name;
+  // The configured model (ModelConfig::name) it is made from. Required. No default.
+  std::string model;
+  // Joints held at fixed values (rad or m), on top of the model's own; as ModelConfig. Default none.
+  std::vector<std::pair<std::string, double>> locked_joints;
+  // false: computed without gravity. Default true (the model's gravity).
+  bool gravity = true;
+  // The links that receive external forces, in the order of a request's fext; the others skip
+  // that term. Each must be the child link of one of the scene's joints. Default none.
+  std::vector<std::string> force_links;
+  // What the scene computes, by the names of GetScene's outputs: qdd, minv, dqdd_dq, dqdd_dqd,
+  // tau, dtau_dq, dtau_dqd, m. Default [dqdd_dq, dqdd_dqd].
+  std::vector<std::string> outputs = {"dqdd_dq", "dqdd_dqd"};
+  // "computed" (default): M^-1 is computed; "supplied": every request brings it (minv).
+  std::string minv = "computed";
+  bool operator==(const SceneConfig&) const = default;
+};
+
 // A backend plugin to dlopen(). The CPU backend needs no entry: the daemon looks it up next to its
 // own binary (<prefix>/lib/rbdgrad/librbdgrad_cpu.so installed, build/plugins/cpu in the build
 // tree) unless this list yields a plugin named "cpu". A plugin that fails to load is logged and
@@ -119,6 +141,8 @@ struct ServerConfig {
   ListenConfig listen;
   // Models to load at start-up. Default: one model "iiwa14" from the embedded iiwa14.
   std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt}};
+  // Scenes made from those models (SceneConfig). Default none.
+  std::vector<SceneConfig> scenes;
   // Extra backend plugins. Default empty (the CPU backend is always found next to the binary).
   std::vector<PluginConfig> plugins;
   // Threads of the CPU backend's instance (its "threads" option, unless the CPU plugin's own

@@ -64,14 +64,13 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   std::unique_ptr<Daemon> d(new Daemon(std::move(options)));
   const ServerConfig& cfg = d->options_.config;
 
-  if (Status s = ModelRegistry::load(cfg.models, d->models_); !s) return s;
+  if (Status s = ModelRegistry::load(cfg.models, cfg.scenes, d->models_); !s) return s;
   for (const auto& m : d->models_.models()) {
     std::string summary = m->summary;
     // the name clients use, when it is not the robot's own
-    if (m->name != m->model.name) {
-      const auto first_line_end = std::min(summary.find('\n'), summary.size());
-      summary.insert(first_line_end, " (served as '" + m->name + "')");
-    }
+    const auto first_line_end = std::min(summary.find('\n'), summary.size());
+    if (m->scene) summary.insert(first_line_end, " (scene '" + m->name + "', " + m->origin + ")");
+    else if (m->name != m->model.name) summary.insert(first_line_end, " (served as '" + m->name + "')");
     log_lines(summary);
   }
 

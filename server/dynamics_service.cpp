@@ -92,6 +92,25 @@ v1::GetModelResponse describe_model(const ServedModel& served) {
   return out;
 }
 
+v1::Scene describe_scene(const ServedModel& served) {
+  const SceneInfo& info = *served.scene;
+  v1::Scene out;
+  out.set_name(served.name);
+  out.set_model(info.model);
+  out.set_nv(static_cast<std::uint32_t>(served.model.nv));
+  *out.mutable_joints() = describe_model(served).joints();
+  for (const auto& [joint, value] : info.locked_joints) {
+    out.add_locked_joints(joint);
+    out.add_locked_values(value);
+  }
+  out.set_gravity(info.gravity);
+  for (const std::string& link : info.force_links) out.add_force_links(link);
+  for (int k = 0; k < 8; ++k)
+    if (info.outputs & (1u << k)) out.add_outputs(static_cast<v1::Output>(k + 1));
+  out.set_minv_supplied(info.minv_supplied);
+  return out;
+}
+
 v1::GetServerInfoResponse describe_server(const BackendPool& backends, const LimitsConfig& limits,
                                           const std::string& version) {
   v1::GetServerInfoResponse out;
@@ -177,6 +196,10 @@ DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool&
       scheduler_(scheduler),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
+    if (m->scene) {
+      *list_scenes_.add_scenes() = describe_scene(*m);
+      continue;
+    }
     v1::ModelSummary* s = list_models_.add_models();
     s->set_name(m->name);
     s->set_nv(static_cast<std::uint32_t>(m->model.nv));
@@ -231,6 +254,30 @@ grpc::ServerUnaryReactor* DynamicsService::GetModel(grpc::CallbackServerContext*
     return reactor;
   }
   *response = describe_model(*model);
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::ListScenes(grpc::CallbackServerContext* context,
+                                                      const v1::ListScenesRequest* /*request*/,
+                                                      v1::ListScenesResponse* response) {
+  *response = list_scenes_;
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::GetScene(grpc::CallbackServerContext* context,
+                                                    const v1::GetSceneRequest* request, v1::Scene* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  const ServedModel* scene = context_.models().find_scene(request->name());
+  if (scene == nullptr) {
+    const std::string& names = context_.models().scene_names();
+    reactor->Finish(to_grpc_status(not_found("scene '" + request->name() + "' is not configured (scenes: " +
+                                             (names.empty() ? std::string("none") : names) + ")")));
+    return reactor;
+  }
+  *response = describe_scene(*scene);
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

@@ -23,8 +23,9 @@ namespace rbdgrad::server {
 
 using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute<
     rbdgrad::v1::Dynamics::WithRawCallbackMethod_ComputeStream<rbdgrad::v1::Dynamics::WithCallbackMethod_ListModels<
-        rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<
-            rbdgrad::v1::Dynamics::WithCallbackMethod_Calibrate<rbdgrad::v1::Dynamics::Service>>>>>>;
+        rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<rbdgrad::v1::Dynamics::WithCallbackMethod_ListScenes<
+            rbdgrad::v1::Dynamics::WithCallbackMethod_GetScene<rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<
+                rbdgrad::v1::Dynamics::WithCallbackMethod_Calibrate<rbdgrad::v1::Dynamics::Service>>>>>>>>;
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
@@ -56,6 +57,10 @@ class DynamicsService final : public DynamicsServiceBase {
                                        rbdgrad::v1::ListModelsResponse* response) override;
   grpc::ServerUnaryReactor* GetModel(grpc::CallbackServerContext* context, const rbdgrad::v1::GetModelRequest* request,
                                      rbdgrad::v1::GetModelResponse* response) override;
+  grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context, const rbdgrad::v1::ListScenesRequest* request,
+                                       rbdgrad::v1::ListScenesResponse* response) override;
+  grpc::ServerUnaryReactor* GetScene(grpc::CallbackServerContext* context, const rbdgrad::v1::GetSceneRequest* request,
+                                     rbdgrad::v1::Scene* response) override;
   grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
                                           const rbdgrad::v1::GetServerInfoRequest* request,
                                           rbdgrad::v1::GetServerInfoResponse* response) override;
@@ -71,12 +76,17 @@ class DynamicsService final : public DynamicsServiceBase {
   std::mutex calibrating_;      // one Calibrate at a time
   // the answers that never change, built once
   rbdgrad::v1::ListModelsResponse list_models_;
+  rbdgrad::v1::ListScenesResponse list_scenes_;
   rbdgrad::v1::GetServerInfoResponse server_info_;
 };
 
 /// GetModel's answer for one model: joints in model order with types, parents, links and limits,
 /// gravity and the summary text.
 rbdgrad::v1::GetModelResponse describe_model(const ServedModel& model);
+
+/// GetScene's answer for one scene (model.scene set): its joints as describe_model gives them,
+/// what it locks, its gravity, force links and outputs.
+rbdgrad::v1::Scene describe_scene(const ServedModel& scene);
 
 /// GetServerInfo's answer: every backend tried (ready or with the reason), plus "cpu", "cuda" and
 /// "fpga" as unavailable ("not configured") when they were not tried, and the limits.

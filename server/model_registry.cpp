@@ -13,14 +13,15 @@
 namespace rbdgrad::server {
 
 ServedModel::ServedModel(std::size_t index_in, std::string name_in, std::string origin_in, std::string source_in,
-                         Model model_in)
+                         Model model_in, std::optional<SceneInfo> scene_in)
     : index(index_in),
       name(std::move(name_in)),
       origin(std::move(origin_in)),
       source(std::move(source_in)),
       model(std::move(model_in)),
       desc(model),
-      summary(model_summary(model)) {}
+      summary(model_summary(model)),
+      scene(std::move(scene_in)) {}
 
 namespace {
 
@@ -66,7 +67,8 @@ Status load_one(const ModelConfig& cfg, std::size_t index, std::unique_ptr<const
 
 }  // namespace
 
-Status ModelRegistry::load(const std::vector<ModelConfig>& configs, ModelRegistry& out) {
+Status ModelRegistry::load(const std::vector<ModelConfig>& configs, const std::vector<SceneConfig>& scenes,
+                           ModelRegistry& out) {
   if (configs.empty()) return invalid_argument("no models configured: the daemon needs at least one");
   ModelRegistry loaded;
   std::set<std::string> names;
@@ -80,6 +82,24 @@ Status ModelRegistry::load(const std::vector<ModelConfig>& configs, ModelRegistr
     loaded.names_ += cfg.name;
     loaded.models_.push_back(std::move(model));
   }
+  for (const SceneConfig& cfg : scenes) {
+    if (cfg.name.empty()) return invalid_argument("a scene has no name");
+    if (!names.insert(cfg.name).second)
+      return invalid_argument("scene name '" + cfg.name + "' is used twice, or by a model");
+    const ServedModel* base = loaded.find(cfg.model);
+    if (base == nullptr)
+      return not_found("scene '" + cfg.name + "': model '" + cfg.model + "' is not configured (models: " +
+                       loaded.names_ + ")");
+    Model model;
+    SceneInfo info;
+    if (Status s = make_scene(cfg, base->model, model, info); !s) return s;
+    const std::string origin = "scene of " + cfg.model + ", " + std::to_string(model.nv) + " of " +
+                               std::to_string(base->model.nv) + " joints";
+    if (!loaded.scene_names_.empty()) loaded.scene_names_ += ", ";
+    loaded.scene_names_ += cfg.name;
+    loaded.models_.push_back(std::make_unique<const ServedModel>(loaded.models_.size(), cfg.name, origin, base->source,
+                                                                 std::move(model), std::move(info)));
+  }
   out = std::move(loaded);
   return Status::ok();
 }
@@ -87,7 +107,14 @@ Status ModelRegistry::load(const std::vector<ModelConfig>& configs, ModelRegistr
 const ServedModel* ModelRegistry::find(std::string_view name) const noexcept {
   // a handful of models: a linear scan beats hashing the name
   for (const auto& m : models_) {
-    if (m->name == name) return m.get();
+    if (!m->scene && m->name == name) return m.get();
+  }
+  return nullptr;
+}
+
+const ServedModel* ModelRegistry::find_scene(std::string_view name) const noexcept {
+  for (const auto& m : models_) {
+    if (m->scene && m->name == name) return m.get();
   }
   return nullptr;
 }

@@ -168,6 +168,27 @@ RpcStatus Client::get_model(const std::string& name, ModelDescription& out,
   return st;
 }
 
+RpcStatus Client::list_scenes(std::vector<SceneDescription>& out,
+                              std::optional<std::chrono::nanoseconds> timeout) const {
+  v1::ListScenesResponse response;
+  RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::ListScenes, v1::ListScenesRequest(), response, timeout);
+  if (st) {
+    out.clear();
+    for (const v1::Scene& s : response.scenes()) out.push_back(detail::decode(s));
+  }
+  return st;
+}
+
+RpcStatus Client::get_scene(const std::string& name, SceneDescription& out,
+                            std::optional<std::chrono::nanoseconds> timeout) const {
+  v1::GetSceneRequest request;
+  request.set_name(name);
+  v1::Scene response;
+  RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::GetScene, request, response, timeout);
+  if (st) out = detail::decode(response);
+  return st;
+}
+
 RpcStatus Client::server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout) const {
   v1::GetServerInfoResponse response;
   RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::GetServerInfo, v1::GetServerInfoRequest(), response, timeout);
@@ -195,6 +216,18 @@ std::vector<ServedModel> Client::list_models(std::optional<std::chrono::nanoseco
 ModelDescription Client::get_model(const std::string& name, std::optional<std::chrono::nanoseconds> timeout) const {
   ModelDescription out;
   if (RpcStatus st = get_model(name, out, timeout); !st) throw ClientError(std::move(st));
+  return out;
+}
+
+std::vector<SceneDescription> Client::list_scenes(std::optional<std::chrono::nanoseconds> timeout) const {
+  std::vector<SceneDescription> out;
+  if (RpcStatus st = list_scenes(out, timeout); !st) throw ClientError(std::move(st));
+  return out;
+}
+
+SceneDescription Client::get_scene(const std::string& name, std::optional<std::chrono::nanoseconds> timeout) const {
+  SceneDescription out;
+  if (RpcStatus st = get_scene(name, out, timeout); !st) throw ClientError(std::move(st));
   return out;
 }
 

@@ -56,8 +56,13 @@ RpcStatus adopt_response(const ExpectedResult& expected, ComputeResult::Impl& im
   const auto n = static_cast<std::size_t>(expected.num_states);
   const auto nv = static_cast<std::size_t>(expected.nv);
   impl.data.fill(nullptr);
+  // a scene's request may leave the outputs to the scene: then they are what the response holds
+  std::uint32_t outputs = expected.outputs;
+  if (outputs == 0)
+    for (Output o : kEveryOutput)
+      if (!tensor_of(r, o).data().empty()) outputs |= mask(o);
   for (Output o : kEveryOutput) {
-    if (!(expected.outputs & mask(o))) continue;
+    if (!(outputs & mask(o))) continue;
     const v1::Tensor& t = tensor_of(r, o);
     // the proto reads an unspecified type as f64
     const bool type_ok = expected.type == ScalarType::kF32 ? t.type() == v1::SCALAR_TYPE_F32
@@ -72,7 +77,7 @@ RpcStatus adopt_response(const ExpectedResult& expected, ComputeResult::Impl& im
     impl.data[static_cast<std::size_t>(bit_index(o))] = reinterpret_cast<const unsigned char*>(t.data().data());
   }
   impl.nv = expected.nv;
-  impl.outputs = expected.outputs;
+  impl.outputs = outputs;
   impl.type = expected.type;
   impl.backend = from_proto(r.backend());
   impl.precision = from_proto(r.precision());

@@ -26,6 +26,25 @@ ModelDescription decode(const v1::GetModelResponse& r) {
   return d;
 }
 
+SceneDescription decode(const v1::Scene& r) {
+  SceneDescription d;
+  d.name = r.name();
+  d.model = r.model();
+  d.nv = static_cast<int>(r.nv());
+  for (const v1::Joint& j : r.joints())
+    d.joints.push_back({j.name(), j.type(), j.parent(), j.parent_link(), j.child_link(), j.lower_limit(),
+                        j.upper_limit(), j.effort_limit(), j.velocity_limit()});
+  for (int i = 0; i < r.locked_joints_size() && i < r.locked_values_size(); ++i)
+    d.locked_joints.emplace_back(r.locked_joints(i), r.locked_values(i));
+  d.gravity = r.gravity();
+  d.force_links.assign(r.force_links().begin(), r.force_links().end());
+  for (Output o : kEveryOutput)
+    for (int p : r.outputs())
+      if (p == output_to_proto(o)) d.outputs |= static_cast<std::uint32_t>(o);
+  d.minv_supplied = r.minv_supplied();
+  return d;
+}
+
 ServerInfo decode(const v1::GetServerInfoResponse& r) {
   ServerInfo info;
   info.version = r.version();

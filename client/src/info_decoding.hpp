@@ -11,6 +11,7 @@ namespace rbdgrad::detail {
 
 std::vector<ServedModel> decode(const v1::ListModelsResponse& r);
 ModelDescription decode(const v1::GetModelResponse& r);
+SceneDescription decode(const v1::Scene& r);
 ServerInfo decode(const v1::GetServerInfoResponse& r);
 
 }  // namespace rbdgrad::detail

@@ -35,6 +35,7 @@ RpcStatus encode_request(const ComputeRequest& req, v1::ComputeRequest& msg) {
     return {RpcCode::kInvalidArgument, "client: outputs has bits that name no output (" + std::to_string(unknown) +
                                            "; the outputs are the bits 1 to 128)"};
   msg.set_model(req.model);
+  msg.set_scene(req.scene);
   msg.set_num_states(req.num_states);
   msg.set_precision(to_proto(req.precision));
   msg.set_input_kind(req.input == ComputeInput::kQdd ? v1::INPUT_KIND_QDD : v1::INPUT_KIND_TAU);

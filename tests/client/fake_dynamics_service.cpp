@@ -65,7 +65,10 @@ grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::Com
   // the daemon's checks, in short
   const int n = static_cast<int>(req.num_states());
   if (n < 1) return {grpc::StatusCode::INVALID_ARGUMENT, "num_states must be at least 1"};
-  if (req.outputs_size() == 0) return {grpc::StatusCode::INVALID_ARGUMENT, "no outputs requested"};
+  // a request of the scene "reach" that lists no outputs gets the scene's
+  std::vector<int> outputs(req.outputs().begin(), req.outputs().end());
+  if (outputs.empty() && req.scene() == "reach") outputs = {v1::OUTPUT_QDD, v1::OUTPUT_DQDD_DQ};
+  if (outputs.empty()) return {grpc::StatusCode::INVALID_ARGUMENT, "no outputs requested"};
   const std::vector<double> q = doubles(req.q()), qd = doubles(req.qd()), u = doubles(req.u());
   const int nv = static_cast<int>(q.size()) / n;
   if (nv < 1 || q.size() != static_cast<std::size_t>(n * nv) || qd.size() != q.size() || u.size() != q.size())
@@ -80,7 +83,7 @@ grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::Com
   const bool f32 = req.output_type() == v1::SCALAR_TYPE_F32;
   for (v1::Output o : kOutputs) {
     bool wanted = false;
-    for (int x : req.outputs()) wanted |= x == o;
+    for (int x : outputs) wanted |= x == o;
     if (!wanted) continue;
     v1::Tensor* t = server::response_tensor(resp, o);
     t->set_type(f32 ? v1::SCALAR_TYPE_F32 : v1::SCALAR_TYPE_F64);
@@ -149,6 +152,40 @@ grpc::Status FakeDynamicsService::ListModels(grpc::ServerContext*, const v1::Lis
   b->set_name("panda");
   b->set_nv(9);
   b->set_source("/robots/panda.urdf");
+  return grpc::Status::OK;
+}
+
+namespace {
+v1::Scene reach_scene() {
+  v1::Scene s;
+  s.set_name("reach");
+  s.set_model("twolink");
+  s.set_nv(1);
+  v1::Joint* j = s.add_joints();
+  j->set_name("shoulder");
+  j->set_type("revolute");
+  j->set_parent(-1);
+  j->set_child_link("upper_arm");
+  s.add_locked_joints("wrist");
+  s.add_locked_values(0.25);
+  s.set_gravity(false);
+  s.add_force_links("upper_arm");
+  s.add_outputs(v1::OUTPUT_QDD);
+  s.add_outputs(v1::OUTPUT_DQDD_DQ);
+  s.set_minv_supplied(true);
+  return s;
+}
+}  // namespace
+
+grpc::Status FakeDynamicsService::ListScenes(grpc::ServerContext*, const v1::ListScenesRequest*,
+                                             v1::ListScenesResponse* resp) {
+  *resp->add_scenes() = reach_scene();
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeDynamicsService::GetScene(grpc::ServerContext*, const v1::GetSceneRequest* req, v1::Scene* resp) {
+  if (req->name() != "reach") return {grpc::StatusCode::NOT_FOUND, "scene '" + req->name() + "' is not configured"};
+  *resp = reach_scene();
   return grpc::Status::OK;
 }
 

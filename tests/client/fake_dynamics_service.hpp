@@ -43,6 +43,11 @@ class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
                         rbdgrad::v1::GetModelResponse* resp) override;
   grpc::Status GetServerInfo(grpc::ServerContext* ctx, const rbdgrad::v1::GetServerInfoRequest* req,
                              rbdgrad::v1::GetServerInfoResponse* resp) override;
+  // one scene, "reach" (made from "twolink", one joint locked, computes qdd and d qdd/d q)
+  grpc::Status ListScenes(grpc::ServerContext* ctx, const rbdgrad::v1::ListScenesRequest* req,
+                          rbdgrad::v1::ListScenesResponse* resp) override;
+  grpc::Status GetScene(grpc::ServerContext* ctx, const rbdgrad::v1::GetSceneRequest* req,
+                        rbdgrad::v1::Scene* resp) override;
 
   // Copies of the compute requests received so far (unary and stream), in arrival order.
   std::vector<rbdgrad::v1::ComputeRequest> received() const;

@@ -1,4 +1,5 @@
-// Tests for client/src/info_decoding.cpp: ListModels, GetModel and GetServerInfo as plain structs.
+// Tests for client/src/info_decoding.cpp: ListModels, GetModel, ListScenes, GetScene and
+// GetServerInfo as plain structs.
 #include <gtest/gtest.h>
 
 #include "fake_dynamics_service.hpp"
@@ -43,6 +44,51 @@ TEST(ClientServiceInfo, GetModelMapsJointsInOrder) {
   EXPECT_FALSE(b.has_position_limits());
   EXPECT_EQ(m.gravity, Eigen::Vector3d(0.0, -9.81, 0.5));
   EXPECT_EQ(m.summary, "model 'twolink': 2 moving joints");
+}
+
+TEST(ClientServiceInfo, ScenesAsPlainStructs) {
+  FakeServer server;
+  Client client(server.address());
+  const std::vector<SceneDescription> scenes = client.list_scenes();
+  ASSERT_EQ(scenes.size(), 1u);
+  const SceneDescription s = client.get_scene("reach");
+  for (const SceneDescription* d : {&scenes[0], &s}) {
+    EXPECT_EQ(d->name, "reach");
+    EXPECT_EQ(d->model, "twolink");
+    EXPECT_EQ(d->nv, 1);
+    ASSERT_EQ(d->joints.size(), 1u);
+    EXPECT_EQ(d->joints[0].name, "shoulder");
+    ASSERT_EQ(d->locked_joints.size(), 1u);
+    EXPECT_EQ(d->locked_joints[0], (std::pair<std::string, double>{"wrist", 0.25}));
+    EXPECT_FALSE(d->gravity);
+    EXPECT_EQ(d->force_links, std::vector<std::string>{"upper_arm"});
+    EXPECT_EQ(d->outputs, static_cast<std::uint32_t>(Output::kQdd) | static_cast<std::uint32_t>(Output::kDqddDq));
+    EXPECT_TRUE(d->minv_supplied);
+  }
+  SceneDescription none;
+  const RpcStatus st = client.get_scene("dance", none);
+  EXPECT_EQ(st.code(), RpcCode::kNotFound);
+  EXPECT_EQ(st.message(), "scene 'dance' is not configured");
+}
+
+// A scene's request may leave the outputs to the scene: the result holds what the server sent.
+TEST(ClientServiceInfo, ASceneRequestWithoutOutputsGetsTheScenes) {
+  FakeServer server;
+  Client client(server.address());
+  const std::vector<double> q = {0.1, 0.2}, qd = {0.3, 0.4}, u = {0.5, 0.6};
+  ComputeRequest req;
+  req.scene = "reach";
+  req.num_states = 2;
+  req.q = q;
+  req.qd = qd;
+  req.u = u;
+  const ComputeResult r = client.compute(req);
+  ASSERT_EQ(server.service().received().size(), 1u);
+  EXPECT_EQ(server.service().received()[0].scene(), "reach");
+  EXPECT_TRUE(r.has(Output::kQdd));
+  EXPECT_TRUE(r.has(Output::kDqddDq));
+  EXPECT_FALSE(r.has(Output::kDqddDqd));
+  EXPECT_EQ(r.matrix(Output::kDqddDq, 1).rows(), 1);
 }
 
 TEST(ClientServiceInfo, GetModelOfAnUnknownNameIsNotFound) {

@@ -122,6 +122,55 @@ TEST(ServerConfigTest, ModelsWithLockedJoints) {
   }
 }
 
+TEST(ServerConfigTest, Scenes) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "scenes:\n"
+      "  - name: trot\n"
+      "    model: hyq\n"
+      "    gravity: false\n"
+      "    force_links: [lf_lowerleg, rh_lowerleg]\n"
+      "    outputs: [dqdd_dq]\n"
+      "    minv: supplied\n"
+      "  - name: walk\n"
+      "    model: talos\n"
+      "    locked_joints: {head_1_joint: 0, head_2_joint: 0.1}\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(cfg.scenes.size(), 2u);
+  const SceneConfig& trot = cfg.scenes[0];
+  EXPECT_EQ(trot.model, "hyq");
+  EXPECT_FALSE(trot.gravity);
+  EXPECT_EQ(trot.force_links, (std::vector<std::string>{"lf_lowerleg", "rh_lowerleg"}));
+  EXPECT_EQ(trot.outputs, std::vector<std::string>{"dqdd_dq"});
+  EXPECT_EQ(trot.minv, "supplied");
+  // the defaults
+  const SceneConfig& walk = cfg.scenes[1];
+  EXPECT_TRUE(walk.gravity);
+  EXPECT_TRUE(walk.force_links.empty());
+  EXPECT_EQ(walk.outputs, (std::vector<std::string>{"dqdd_dq", "dqdd_dqd"}));
+  EXPECT_EQ(walk.minv, "computed");
+  EXPECT_EQ(walk.locked_joints, (std::vector<std::pair<std::string, double>>{{"head_1_joint", 0.0}, {"head_2_joint", 0.1}}));
+  EXPECT_NE(describe(cfg).find("trot: model hyq, 0 joint(s) locked, gravity off, 2 force link(s), M^-1 supplied"),
+            std::string::npos)
+      << describe(cfg);
+  const std::pair<const char*, const char*> bad[] = {
+      {"scenes:\n  - {name: a}\n", "a scene needs a 'model'"},
+      {"scenes:\n  - {model: hyq}\n", "a scene needs a 'name'"},
+      {"scenes:\n  - {name: a, model: hyq, gravity: off}\n", "scenes[0].gravity' (line 2): expected true or false"},
+      {"scenes:\n  - {name: a, model: hyq, minv: cached}\n", "expected 'computed' or 'supplied', got 'cached'"},
+      {"scenes:\n  - {name: a, model: hyq, force_links: lf_lowerleg}\n", "scenes[0].force_links' (line 2): expected a list"},
+      {"scenes:\n  - {name: a, model: hyq, fext: []}\n", "fext"},
+      {"scenes:\n  - {name: a, model: hyq}\n  - {name: a, model: hyq}\n", "duplicate scene name 'a'"},
+  };
+  for (const auto& [text, want_message] : bad) {
+    ServerConfig c;
+    const Status e = parse_config(text, "t", c);
+    EXPECT_FALSE(e.is_ok()) << text;
+    EXPECT_NE(e.message().find(want_message), std::string::npos) << e.message();
+  }
+}
+
 TEST(ServerConfigTest, OverridesPlugins) {
   ServerConfig cfg;
   const Status s = parse_config(

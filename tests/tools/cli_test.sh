@@ -325,6 +325,42 @@ PY
   stop_daemon
 }
 
+# scenes: rbdgrad scenes describes them, compute --scene uses the scene's joints and outputs
+case_daemon_scenes() {
+  cat > "$WORK/scenes.yaml" <<'YAML'
+models:
+  - {name: talos, embedded: talos_reduced}
+  - {name: hyq, embedded: hyq}
+scenes:
+  - name: walk
+    model: talos
+    locked_joints: {head_1_joint: 0, head_2_joint: 0, gripper_left_joint: 0, gripper_right_joint: 0}
+  - {name: trot, model: hyq, gravity: false, force_links: [lf_lowerleg], outputs: [qdd, dqdd_dq]}
+scheduler: {calibrate: "off"}
+YAML
+  start_daemon --config "$WORK/scenes.yaml"
+  expect_exit 0 "$RBDGRAD" scenes --server "$SERVER"
+  expect_in "$WORK/stdout" "walk: model talos, 28 joints, gravity on, M^-1 computed"
+  expect_in "$WORK/stdout" "locked: head_1_joint=0 head_2_joint=0 gripper_left_joint=0 gripper_right_joint=0"
+  expect_in "$WORK/stdout" "trot: model hyq, 12 joints, gravity off"
+  expect_in "$WORK/stdout" "force links (fext order): lf_lowerleg"
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --scene walk --n 5 --out "$WORK/walk.jsonl"
+  expect_in "$WORK/stdout" "scene walk (nv 28)"
+  expect_in "$WORK/stdout" "5 of 5 states computed"
+  "$PYTHON" -c 'import json,sys; h,*s=[json.loads(l) for l in open(sys.argv[1])]; assert h["outputs"]==["dqdd_dq","dqdd_dqd"], h; assert h["nv"]==28, h; assert len(s)==5 and len(s[0]["dqdd_dq"])==28*28, s[0].keys()' "$WORK/walk.jsonl"
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --scene trot --n 3 --out "$WORK/trot.jsonl"
+  "$PYTHON" -c 'import json,sys; h,*s=[json.loads(l) for l in open(sys.argv[1])]; assert h["outputs"]==["qdd","dqdd_dq"], h; assert h["gravity"]==[0,0,0], h' "$WORK/trot.jsonl"
+  # an output the scene does not compute, an unknown scene, --model with --scene
+  expect_exit 1 "$RBDGRAD" compute --server "$SERVER" --scene trot --n 3 --outputs dqdd_dqd
+  expect_in "$WORK/stderr" "output dqdd_dqd is not one the scene computes (qdd, dqdd_dq)"
+  expect_exit 1 "$RBDGRAD" compute --server "$SERVER" --scene dance --n 3
+  expect_in "$WORK/stderr" "NOT_FOUND"
+  expect_in "$WORK/stderr" "scene 'dance' is not configured (scenes: walk, trot)"
+  expect_exit 2 "$RBDGRAD" compute --server "$SERVER" --scene walk --model talos --n 3
+  expect_in "$WORK/stderr" "give --model or --scene, not both"
+  stop_daemon
+}
+
 # the Pinocchio reference through the daemon, like eval; f64 results equal eval's exactly
 #   daemon_compute_reference ROBOT PRECISION OUTPUT_TYPE TOL [compare_results.py options]
 case_daemon_compute_reference() {

@@ -24,6 +24,7 @@ class BatchRequest {
       u_.insert(u_.end(), states[s].u.begin(), states[s].u.end());
     }
     req_.model = plan.model;
+    req_.scene = plan.scene;
     req_.num_states = static_cast<std::uint32_t>(which.size());
     req_.precision = plan.precision;
     req_.input = states[which.front()].input;

@@ -14,6 +14,7 @@ namespace rbdgrad::cli {
 // What every request asks for.
 struct BatchPlan {
   std::string model;
+  std::string scene;  // a scene instead of the model ("" = none)
   Precision precision = Precision::kAuto;
   Backend backend = Backend::kAuto;
   std::uint32_t outputs = 0;  // Output bits

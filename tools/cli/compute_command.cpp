@@ -22,6 +22,7 @@ namespace {
 constexpr OptionSpec kOptions[] = {
     kServerOption,
     {"model", "NAME", "a model the daemon serves (rbdgrad models); default iiwa14"},
+    {"scene", "NAME", "a scene the daemon serves (rbdgrad scenes) instead of a model: its joints, its outputs by default"},
     {"n", "N", "compute N random states: q within the joint limits, qd in [-1,1], tau within half the effort limit"},
     {"seed", "S", "seed of the random states; default 1"},
     {"in", "STATES.jsonl", "compute the states of a file instead ('-' for stdin), read as rbdgrad eval reads it"},
@@ -44,6 +45,7 @@ constexpr ServiceOutput kServiceOutput[kNumOutputs] = {ServiceOutput::kQdd,     
 
 struct ComputeOptions {
   std::string model = "iiwa14";
+  std::string scene;
   std::optional<std::uint32_t> n;
   std::uint64_t seed = 1;
   std::string in, out;
@@ -67,6 +69,8 @@ bool parse_integer(const std::string& text, T& out) {
 // Fills `o` from the arguments; returns "" or the usage problem.
 std::string parse_options(const Args& args, ComputeOptions& o) {
   o.model = args.value_or("model", o.model);
+  o.scene = args.value_or("scene", "");
+  if (!o.scene.empty() && args.has("model")) return "give --model or --scene, not both";
   o.in = args.value_or("in", "");
   o.out = args.value_or("out", "");
   if (const std::string* n = args.value("n")) {
@@ -98,7 +102,8 @@ std::string parse_options(const Args& args, ComputeOptions& o) {
   }
   for (int k = 0; k < kNumOutputs; ++k)
     if (o.outputs[static_cast<std::size_t>(k)]) o.plan.outputs |= mask(kServiceOutput[k]);
-  o.plan.model = o.model;
+  o.plan.model = o.scene.empty() ? o.model : "";
+  o.plan.scene = o.scene;
   return "";
 }
 
@@ -218,7 +223,23 @@ int run_compute_command(int argc, const char* const* argv, int first) {
   std::ostream& report = o.out == "-" ? std::cerr : std::cout;
 
   ModelDescription model;
-  if (RpcStatus st = client->get_model(o.model, model); !st) return report_rpc_failure("compute", *client, st);
+  if (o.scene.empty()) {
+    if (RpcStatus st = client->get_model(o.model, model); !st) return report_rpc_failure("compute", *client, st);
+  } else {
+    // the scene's joints are the states' and results'; its outputs unless --outputs says otherwise
+    SceneDescription scene;
+    if (RpcStatus st = client->get_scene(o.scene, scene); !st) return report_rpc_failure("compute", *client, st);
+    if (RpcStatus st = client->get_model(scene.model, model); !st) return report_rpc_failure("compute", *client, st);
+    model.name = scene.name;
+    model.nv = scene.nv;
+    model.joints = scene.joints;
+    if (!scene.gravity) model.gravity.setZero();
+    if (!args.has("outputs")) {
+      for (int k = 0; k < kNumOutputs; ++k)
+        o.outputs[static_cast<std::size_t>(k)] = (scene.outputs & mask(kServiceOutput[k])) != 0;
+      o.plan.outputs = scene.outputs;
+    }
+  }
   ServerInfo info;
   if (RpcStatus st = client->server_info(info); !st) return report_rpc_failure("compute", *client, st);
   o.plan.nv = model.nv;
@@ -267,7 +288,8 @@ int run_compute_command(int argc, const char* const* argv, int first) {
   // the summary: what ran where, how fast, and whether the numbers are sane
   const std::size_t nonfinite = count_nonfinite(computed);
   const std::size_t requests_ok = computed.results.size();
-  report << "model " << model.name << " (nv " << model.nv << ") on " << client->address() << ": "
+  report << (o.scene.empty() ? "model " : "scene ") << model.name << " (nv " << model.nv << ") on " << client->address()
+         << ": "
          << states.size() - failed << " of " << states.size() << " states computed in " << computed.requests
          << (computed.requests == 1 ? " request" : " requests") << "\n";
   if (requests_ok > 0) {

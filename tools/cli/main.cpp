@@ -11,6 +11,7 @@
 #include "info_command.hpp"
 #include "model_command.hpp"
 #include "models_command.hpp"
+#include "scenes_command.hpp"
 
 namespace {
 
@@ -27,6 +28,7 @@ constexpr Command kCommands[] = {
     {"info", rbdgrad::cli::kInfoSummary, rbdgrad::cli::run_info_command},
     {"calibrate", rbdgrad::cli::kCalibrateSummary, rbdgrad::cli::run_calibrate_command},
     {"models", rbdgrad::cli::kModelsSummary, rbdgrad::cli::run_models_command},
+    {"scenes", rbdgrad::cli::kScenesSummary, rbdgrad::cli::run_scenes_command},
     {"compute", rbdgrad::cli::kComputeSummary, rbdgrad::cli::run_compute_command},
 };
 
@@ -34,8 +36,9 @@ void print_usage(std::ostream& os) {
   os << "usage: rbdgrad [--server ADDR] <command> [options]\n"
      << "       rbdgrad <command> --help | rbdgrad --help | rbdgrad --version\n\n"
      << "Rigid-body dynamics and their derivatives (rbdgrad " << RBDGRAD_VERSION << ").\n"
-     << "info, calibrate, models and compute talk to the daemon rbdgradd at --server (default 127.0.0.1:50051;\n"
-     << "unix:/tmp/rbdgradd.sock is faster on the same host); eval and model compute in-process.\n\ncommands:\n";
+     << "info, calibrate, models, scenes and compute talk to the daemon rbdgradd at --server (default\n"
+     << "127.0.0.1:50051; unix:/tmp/rbdgradd.sock is faster on the same host); eval and model compute\n"
+     << "in-process.\n\ncommands:\n";
   for (const Command& c : kCommands) os << "  " << c.name << std::string(11 - c.name.size(), ' ') << c.summary << "\n";
 }
 

@@ -13,7 +13,8 @@
 // Calls: compute (sync: throwing, or returning an RpcStatus), compute_async (a std::future, or a
 // callback on a gRPC thread; no thread per call), ComputeSession (one long-lived stream for a
 // control loop: one request per step, responses in order, buffers reused), list_models,
-// get_model, server_info. Every call has a deadline: its own timeout, else the client's default.
+// get_model, list_scenes, get_scene, server_info. Every call has a deadline: its own timeout, else
+// the client's default.
 //
 // Threads: a Client may be used from any number of threads at once (they share one channel, i.e.
 // one connection). A ComputeSession is used by one thread at a time.
@@ -138,12 +139,20 @@ class RBDGRAD_CLIENT_EXPORT Client {
   /// One model's joints (names, types, parents, limits) and gravity. Throws ClientError
   /// (NOT_FOUND for an unknown model).
   ModelDescription get_model(const std::string& name, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  /// The scenes the server serves. Throws ClientError.
+  std::vector<SceneDescription> list_scenes(std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  /// One scene: its joints, what it locks, gravity, force links and outputs. Throws ClientError
+  /// (NOT_FOUND for an unknown scene).
+  SceneDescription get_scene(const std::string& name, std::optional<std::chrono::nanoseconds> timeout = {}) const;
   /// The server's version, backends and limits. Throws ClientError.
   ServerInfo server_info(std::optional<std::chrono::nanoseconds> timeout = {}) const;
 
-  // The same three without exceptions.
+  // The same without exceptions.
   RpcStatus list_models(std::vector<ServedModel>& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus get_model(const std::string& name, ModelDescription& out,
+                      std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  RpcStatus list_scenes(std::vector<SceneDescription>& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  RpcStatus get_scene(const std::string& name, SceneDescription& out,
                       std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
 

@@ -78,10 +78,14 @@ RBDGRAD_CLIENT_EXPORT bool parse_scalar_type(std::string_view text, ScalarType& 
 // does, and its message names the state and field.
 struct ComputeRequest {
   std::string model;                 // a model the server serves (Client::list_models)
+  // Or a scene (Client::list_scenes; model then empty or the scene's): the arrays in the scene's
+  // joints (Client::get_scene), outputs 0 for the scene's own, fext for its force links only
+  // (N x links x 6, in SceneDescription::force_links' order), minv when the scene takes it.
+  std::string scene;
   std::uint32_t num_states = 0;      // N >= 1, at most ServerInfo::max_states_per_request
   Precision precision = Precision::kAuto;
   ComputeInput input = ComputeInput::kTau;
-  std::uint32_t outputs = 0;         // Output bits, at least one
+  std::uint32_t outputs = 0;         // Output bits, at least one (with a scene: 0 = the scene's)
   std::span<const double> q;         // (N x nv) joint positions
   std::span<const double> qd;        // (N x nv) joint velocities
   std::span<const double> u;         // (N x nv) tau or qdd, as `input` says

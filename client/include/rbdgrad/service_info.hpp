@@ -45,6 +45,19 @@ struct ModelDescription {
   std::string summary;                   // human-readable, several lines
 };
 
+// Client::get_scene, Client::list_scenes: a model the server reduced for one fixed problem.
+struct SceneDescription {
+  std::string name;
+  std::string model;                                         // the model it is made from
+  int nv = 0;                                                // the scene's joints
+  std::vector<JointDescription> joints;                      // (nv) in the order of its arrays
+  std::vector<std::pair<std::string, double>> locked_joints;  // the model's joints held, and where
+  bool gravity = true;                                       // false: computed without gravity
+  std::vector<std::string> force_links;  // the links that take external forces, in fext's order
+  std::uint32_t outputs = 0;             // Output bits: what it computes
+  bool minv_supplied = false;            // true: each request brings M^-1 (minv)
+};
+
 // One latency model of the server's scheduler: a backend's time per batch for one model and
 // precision, interpolated between its points.
 struct LatencyModelStatus {
