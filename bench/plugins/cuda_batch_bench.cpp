@@ -152,7 +152,7 @@ Kernel generic_kernel() {
 Kernel block_kernel(bool mapped_io) {
   Kernel k{mapped_io ? "block" : "block-copy", {}};
   k.options.f32_thread_kernel_min_states = 0;
-  if (!mapped_io) k.options.mapped_io_max_kib = 0;
+  if (!mapped_io) k.options.mapped_io_max_kib = k.options.mapped_pinned_max_kib = 0;
   return k;
 }
 // the defaults with f32 batches computed in f32 arithmetic (the plugin's option f32_compute: f32;
@@ -173,6 +173,7 @@ Kernel mapped_io() {
 Kernel pipeline(std::size_t chunks) {
   Kernel k{std::to_string(chunks) + "chunks", {}};
   k.options.chunks = {1, chunks};
+  k.options.mapped_pinned_max_kib = 0;  // copies at every size measured
   return k;
 }
 Kernel block_kernel(int threads_per_state, int states_per_block) {

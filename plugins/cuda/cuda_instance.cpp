@@ -287,9 +287,33 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     out_per_state[f] = (plugin::kMatrixOutputs & (1u << f)) ? nv * nv : nv;
   auto* h_in = h_in_.as<unsigned char>();
   auto* h_out = h_out_.as<unsigned char>();
-  // small batches (mapped_io_max_kib): the kernel works on the pinned blocks themselves, no
-  // copies, one chunk
-  const bool mapped = in_layout.size() + out_layout.size() <= (kernel_.mapped_io_max_kib << 10);
+  // The caller's pinned arrays go straight to and from the device, or with mapped memory are the
+  // kernel's own inputs and outputs; a check costs about a microsecond, so batches smaller than
+  // kMappedPinnedCheckMinBytes are staged unchecked.
+  const std::size_t io_bytes = in_layout.size() + out_layout.size();
+  unsigned char* in_device[5] = {};
+  unsigned char* out_device[kOutputCount] = {};
+  bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
+  bool any_pinned = false, all_pinned = true;
+  if (io_bytes >= kMappedPinnedCheckMinBytes) {
+    for (int k = 0; k < 5; ++k) {
+      if (!inputs[k].from) continue;
+      in_device[k] = pinned_device_address(inputs[k].from);
+      any_pinned |= in_pinned[k] = in_device[k] != nullptr;
+      all_pinned &= in_pinned[k];
+    }
+    for (int f = 0; f < kOutputCount; ++f) {
+      if (!(b.outputs & (1u << f))) continue;
+      out_device[f] = pinned_device_address(caller_output(b, f));
+      any_pinned |= out_pinned[f] = out_device[f] != nullptr;
+      all_pinned &= out_pinned[f];
+    }
+  }
+  // Small batches (mapped_io_max_kib), and larger ones whose arrays are all pinned
+  // (mapped_pinned_max_kib): no device copies, one chunk; the kernel works on the pinned arrays in
+  // place or on the staging blocks.
+  const bool mapped = io_bytes <= (kernel_.mapped_io_max_kib << 10) ||
+                      (any_pinned && all_pinned && io_bytes <= (kernel_.mapped_pinned_max_kib << 10));
   auto* d_in = static_cast<unsigned char*>(mapped ? h_in_.device_address() : d_in_.data());
   auto* d_out = static_cast<unsigned char*>(mapped ? h_out_.device_address() : d_out_.data());
 
@@ -309,23 +333,6 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   const std::size_t chunk = mapped ? n : chunk_states(n, block ? n : slots_, kernel_.chunks, model_.nv);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const bool pipelined = chunks > 1;
-  // The caller's pinned arrays go straight to and from the device, or with mapped memory are the
-  // kernel's own inputs and outputs; a check costs about a microsecond, so mapped batches smaller
-  // than kMappedPinnedCheckMinBytes are staged unchecked.
-  unsigned char* in_device[5] = {};
-  unsigned char* out_device[kOutputCount] = {};
-  bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
-  bool any_pinned = false;
-  if (!mapped || in_layout.size() + out_layout.size() >= kMappedPinnedCheckMinBytes) {
-    for (int k = 0; k < 5; ++k) {
-      if (inputs[k].from) in_device[k] = pinned_device_address(inputs[k].from);
-      any_pinned |= in_pinned[k] = in_device[k] != nullptr;
-    }
-    for (int f = 0; f < kOutputCount; ++f) {
-      if (b.outputs & (1u << f)) out_device[f] = pinned_device_address(caller_output(b, f));
-      any_pinned |= out_pinned[f] = out_device[f] != nullptr;
-    }
-  }
   // a staged batch in one chunk goes over in one copy each way
   const bool one_copy = chunks == 1 && !mapped && !any_pinned;
   const auto chunk_begin = [&](std::size_t c) { return std::min(n, c * chunk); };

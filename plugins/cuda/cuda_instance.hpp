@@ -69,10 +69,16 @@ inline constexpr int kThreadKernelMaxNv = 16;
 // states (243 KiB in f64) and slower for talos_reduced from 32 states (548 KiB), see
 // docs/benchmarks/cuda.md.
 inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
-// Mapped batches of at least this many bytes (inputs and outputs) check whether the caller's
-// arrays are pinned, so that the kernel works on them in place instead of staging them: the
-// checks cost about 1 us each, a staging copy of this size about as much as all of them.
+// Batches of at least this many bytes (inputs and outputs) check whether the caller's arrays are
+// pinned, so that the copies or the kernel use them in place instead of staging them: the checks
+// cost about 1 us each, a staging copy of this size about as much as all of them.
 inline constexpr std::size_t kMappedPinnedCheckMinBytes = 64 * 1024;
+// Batches whose arrays are all pinned skip the device copies up to this many KiB (the plugin's
+// option mapped_pinned_max_kib): the kernel reads and writes them in place over PCIe, which hides
+// the transfers behind the kernel. On the H200 (run 28) that is faster up to about 4 MB: iiwa14 f64
+// at N = 1024 55.4 against 77.1 us with copies, talos_reduced f64 at N = 256 135 against 174; and
+// slower above (iiwa14 f64 at N = 16384 496 against 412, talos_reduced at N = 1024 471 against 431).
+inline constexpr std::size_t kDefaultMappedPinnedMaxKib = 4096;
 
 /// What an f32 gradient batch computes in (the plugin's option f32_compute: auto, f32, f64). In
 /// f64 the block kernel reads the f32 inputs and rounds its results to f32 as it writes them:
@@ -90,6 +96,7 @@ struct KernelOptions {
   std::size_t f32_thread_kernel_min_states = kDefaultF32ThreadKernelMinStates;
   BlockShape block_shape;
   std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
+  std::size_t mapped_pinned_max_kib = kDefaultMappedPinnedMaxKib;
   // the block kernel compiled for the robot (specialize()) where there is one, else the generic
   bool robot_specific = true;
   // CUDA events around the kernels, for last_kernel_ms (benchmarks): two more calls per batch

@@ -72,7 +72,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // block_max_states: the block kernel takes gradient requests of up to this many states (0:
     // never); threads_per_state (0: by the model's size), states_per_block: its block shape.
     // mapped_io_max_kib: batches whose inputs and outputs take up to this many KiB skip the
-    // device copies (the kernel works on pinned host memory). f32_thread_kernel_min_states: f32
+    // device copies (the kernel works on pinned host memory); mapped_pinned_max_kib: the same for
+    // batches whose arrays are all pinned (0: none). f32_thread_kernel_min_states: f32
     // gradient batches of at least this many states on small models run the one-thread kernel
     // (0: never). chunk_min_states, max_chunks: batches larger than one chunk go through the
     // pipeline in up to max_chunks chunks of at least chunk_min_states states (0: by the model's
@@ -82,7 +83,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
-                                           "chunk_min_states", "max_chunks", "f32_compute", "specialize",
+                                           "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute", "specialize",
                                            "kernel_cache_dir"});
         !s)
       return s;
@@ -98,7 +99,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     std::uint64_t block_max = kernel.block_max_states;
     std::uint64_t tps = static_cast<std::uint64_t>(kernel.block_shape.threads_per_state);
     std::uint64_t spb = static_cast<std::uint64_t>(kernel.block_shape.states_per_block);
-    std::uint64_t mapped_max = kernel.mapped_io_max_kib;
+    std::uint64_t mapped_max = kernel.mapped_io_max_kib, mapped_pinned_max = kernel.mapped_pinned_max_kib;
     std::uint64_t f32_thread_min = kernel.f32_thread_kernel_min_states;
     std::uint64_t chunk_min = kernel.chunks.min_states, max_chunks = kernel.chunks.max_chunks;
     if (Status s = option_uint(options, "block_max_states", 0, cuda::kDefaultBlockMaxStates, block_max); !s) return s;
@@ -120,6 +121,9 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     kernel.block_max_states = static_cast<std::size_t>(block_max);
     kernel.f32_thread_kernel_min_states = static_cast<std::size_t>(f32_thread_min);
     kernel.mapped_io_max_kib = static_cast<std::size_t>(mapped_max);
+    if (Status s = option_uint(options, "mapped_pinned_max_kib", 0, std::uint64_t{1} << 30, mapped_pinned_max); !s)
+      return s;
+    kernel.mapped_pinned_max_kib = static_cast<std::size_t>(mapped_pinned_max);
     kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
