@@ -135,33 +135,40 @@ class Parser {
       }
       out.gravity = v;
     }
-    const YAML::Node locked = node["locked_joints"];
-    if (locked && !locked.IsNull()) {
-      if (!locked.IsMap()) return error_at(key + ".locked_joints", locked, "expected a map of joint name: value");
-      for (const auto& entry : locked) {
-        const std::string joint = entry.first.as<std::string>();
-        double value = 0;
-        if (Status s = get_double(key + ".locked_joints." + joint, entry.second, value); !s) return s;
-        out.locked_joints.emplace_back(joint, value);
-      }
+    return parse_locked_joints(key, node["locked_joints"], out.locked_joints);
+  }
+
+  // `locked_joints: {joint: value, ...}` of a model or a scene, in the file's order
+  Status parse_locked_joints(const std::string& key, const YAML::Node& locked,
+                             std::vector<std::pair<std::string, double>>& out) const {
+    if (!locked || locked.IsNull()) return Status::ok();
+    if (!locked.IsMap()) return error_at(key + ".locked_joints", locked, "expected a map of joint name: value");
+    for (const auto& entry : locked) {
+      const std::string joint = entry.first.as<std::string>();
+      double value = 0;
+      if (Status s = get_double(key + ".locked_joints." + joint, entry.second, value); !s) return s;
+      out.emplace_back(joint, value);
     }
     return Status::ok();
   }
 
-  Status parse_models(const YAML::Node& node, std::vector<ModelConfig>& out) const {
-    // the file's list replaces the default list, it does not add to it
+  // A list of named entries (`models`, `scenes`), each read by `parse_one`, the names unique. The
+  // file's list replaces the default list, it does not add to it.
+  template <class T>
+  Status parse_named_list(const std::string& section, const char* what, const YAML::Node& node,
+                          Status (Parser::*parse_one)(const std::string&, const YAML::Node&, T&) const,
+                          std::vector<T>& out) const {
     out.clear();
     if (node.IsNull()) return Status::ok();
-    if (!node.IsSequence()) return error_at("models", node, "expected a list");
+    if (!node.IsSequence()) return error_at(section, node, "expected a list");
     std::set<std::string> names;
     for (std::size_t i = 0; i < node.size(); ++i) {
-      const std::string key = "models[" + std::to_string(i) + "]";
-      ModelConfig m;
-      if (Status s = parse_model(key, node[i], m); !s) return s;
-      if (!names.insert(m.name).second) {
-        return error_at(key + ".name", node[i]["name"], "duplicate model name '" + m.name + "'");
-      }
-      out.push_back(std::move(m));
+      const std::string key = section + "[" + std::to_string(i) + "]";
+      T entry;
+      if (Status s = (this->*parse_one)(key, node[i], entry); !s) return s;
+      if (!names.insert(entry.name).second)
+        return error_at(key + ".name", node[i]["name"], std::string("duplicate ") + what + " name '" + entry.name + "'");
+      out.push_back(std::move(entry));
     }
     return Status::ok();
   }
@@ -177,16 +184,7 @@ class Parser {
     if (Status s = get_string(key + ".name", node["name"], out.name); !s) return s;
     if (out.name.empty()) return error_at(key + ".name", node["name"], "must not be empty");
     if (Status s = get_string(key + ".model", node["model"], out.model); !s) return s;
-    const YAML::Node locked = node["locked_joints"];
-    if (locked && !locked.IsNull()) {
-      if (!locked.IsMap()) return error_at(key + ".locked_joints", locked, "expected a map of joint name: value");
-      for (const auto& entry : locked) {
-        const std::string joint = entry.first.as<std::string>();
-        double value = 0;
-        if (Status s = get_double(key + ".locked_joints." + joint, entry.second, value); !s) return s;
-        out.locked_joints.emplace_back(joint, value);
-      }
-    }
+    if (Status s = parse_locked_joints(key, node["locked_joints"], out.locked_joints); !s) return s;
     if (const YAML::Node g = node["gravity"]) {
       if (!g.IsScalar() || (g.Scalar() != "true" && g.Scalar() != "false"))
         return error_at(key + ".gravity", g, "expected true or false");
@@ -210,22 +208,6 @@ class Parser {
       if (Status s = get_string(key + ".minv", node["minv"], out.minv); !s) return s;
       if (out.minv != "computed" && out.minv != "supplied")
         return error_at(key + ".minv", node["minv"], "expected 'computed' or 'supplied', got '" + out.minv + "'");
-    }
-    return Status::ok();
-  }
-
-  Status parse_scenes(const YAML::Node& node, std::vector<SceneConfig>& out) const {
-    out.clear();
-    if (node.IsNull()) return Status::ok();
-    if (!node.IsSequence()) return error_at("scenes", node, "expected a list");
-    std::set<std::string> names;
-    for (std::size_t i = 0; i < node.size(); ++i) {
-      const std::string key = "scenes[" + std::to_string(i) + "]";
-      SceneConfig scene;
-      if (Status s = parse_scene(key, node[i], scene); !s) return s;
-      if (!names.insert(scene.name).second)
-        return error_at(key + ".name", node[i]["name"], "duplicate scene name '" + scene.name + "'");
-      out.push_back(std::move(scene));
     }
     return Status::ok();
   }
@@ -357,10 +339,10 @@ class Parser {
       if (Status s = parse_listen(root["listen"], out.listen); !s) return s;
     }
     if (root["models"]) {
-      if (Status s = parse_models(root["models"], out.models); !s) return s;
+      if (Status s = parse_named_list("models", "model", root["models"], &Parser::parse_model, out.models); !s) return s;
     }
     if (root["scenes"]) {
-      if (Status s = parse_scenes(root["scenes"], out.scenes); !s) return s;
+      if (Status s = parse_named_list("scenes", "scene", root["scenes"], &Parser::parse_scene, out.scenes); !s) return s;
     }
     if (root["plugins"]) {
       if (Status s = parse_plugins(root["plugins"], out.plugins); !s) return s;
