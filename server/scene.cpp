@@ -138,14 +138,16 @@ Status apply_scene(const SceneInfo& scene, const std::string& name, int nv, v1::
   const std::size_t n = request.num_states(), links = scene.force_links.size();
   const std::size_t per_link = 6 * scalar;
   if (compact.size() != n * links * per_link)
-    return invalid_argument(where + ": fext holds " + std::to_string(compact.size() / scalar) + " values; the scene takes " +
-                            std::to_string(n) + " states x " + std::to_string(links) + " force links (" +
-                            joined(scene.force_links) + ") x 6 = " + std::to_string(n * links * 6));
-  std::string full(n * static_cast<std::size_t>(nv) * per_link, '\0');  // zero bits are 0.0 in f64 and f32
+    return invalid_argument(where + ": fext holds " + std::to_string(compact.size() / scalar) +
+                            " values; the scene takes " + std::to_string(n) + " states x " + std::to_string(links) +
+                            " force links (" + joined(scene.force_links) + ") x 6 = " + std::to_string(n * links * 6));
+  const auto bodies = static_cast<std::size_t>(nv);
+  std::string full(n * bodies * per_link, '\0');  // zero bits are 0.0 in f64 and f32
   for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t l = 0; l < links; ++l)
-      std::memcpy(full.data() + (k * static_cast<std::size_t>(nv) + static_cast<std::size_t>(scene.force_bodies[l])) * per_link,
-                  compact.data() + (k * links + l) * per_link, per_link);
+    for (std::size_t l = 0; l < links; ++l) {
+      const auto body = static_cast<std::size_t>(scene.force_bodies[l]);
+      std::memcpy(full.data() + (k * bodies + body) * per_link, compact.data() + (k * links + l) * per_link, per_link);
+    }
   request.mutable_fext()->set_data(std::move(full));
   return Status::ok();
 }

@@ -18,7 +18,9 @@ int run_scenes_command(int argc, const char* const* argv, int first) {
   Args args;
   std::string error = Args::parse(kOptions, argc, argv, first, args);
   if (args.has("help") && error.empty()) {
-    std::cout << "usage: rbdgrad scenes [--server ADDR]\n\n" << kScenesSummary << ".\n\noptions:\n" << format_options(kOptions);
+    std::cout << "usage: rbdgrad scenes [--server ADDR]\n\n"
+              << kScenesSummary << ".\n\noptions:\n"
+              << format_options(kOptions);
     return 0;
   }
   std::unique_ptr<Client> client;
