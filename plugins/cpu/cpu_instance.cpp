@@ -54,6 +54,8 @@ Status CpuInstance::compute_typed(const rbdgrad_batch& batch) {
   const std::size_t tasks = std::min(n, pool_.size());
   // chunk t holds states [t * base + min(t, extra), ...): sizes differ by one at most
   const std::size_t base = n / tasks, extra = n % tasks;
+  // what the batch's outputs, fext and M^-1 need: every state runs the same specialized path
+  const ExecutionPlan plan = StateEvaluator<S>::plan(m, batch);
   pool_.run(tasks, [&](std::size_t task, std::size_t worker) {
     ChunkResult& result = chunks_[task];
     result.failures = 0;
@@ -61,7 +63,7 @@ Status CpuInstance::compute_typed(const rbdgrad_batch& batch) {
     const std::size_t begin = task * base + std::min(task, extra);
     const std::size_t end = begin + base + (task < extra ? 1 : 0);
     for (std::size_t k = begin; k < end; ++k) {
-      Status s = evaluator.evaluate(m, view, k);
+      Status s = evaluator.evaluate(m, view, k, plan);
       view.set_status(k, s ? 0 : static_cast<std::int32_t>(state_error_code(s.code(), batch.precision)));
       if (!s && result.failures++ == 0) {
         result.first_failed = k;

@@ -10,12 +10,18 @@ StateEvaluator<S>::StateEvaluator(const ModelTpl<S>& model)
     : ws_(model), buffers_(model.nv) {}
 
 template <class S>
-Status StateEvaluator<S>::evaluate(const ModelTpl<S>& model, const BatchView<S>& batch, std::size_t k) {
+ExecutionPlan StateEvaluator<S>::plan(const ModelTpl<S>& model, const rbdgrad_batch& batch) {
+  // the ABI's output flags are the core's OutputFlag values
+  return plan_request(model, batch.outputs, batch.fext, batch.minv);
+}
+
+template <class S>
+Status StateEvaluator<S>::evaluate(const ModelTpl<S>& model, const BatchView<S>& batch, std::size_t k,
+                                   const ExecutionPlan& plan) {
   const std::uint32_t outputs = batch.batch().outputs;
   const StateInputs<S> in = batch.inputs(k, buffers_);
   const InputKind kind = batch.batch().input_kind == RBDGRAD_INPUT_TAU ? InputKind::kTau : InputKind::kQdd;
-  // the ABI's output flags are the core's OutputFlag values
-  if (Status s = evaluate_outputs(model, ws_, in.q, in.qd, in.u, kind, outputs, in.fext, in.minv); !s) return s;
+  if (Status s = evaluate_outputs(model, ws_, in.q, in.qd, in.u, kind, outputs, plan, in.fext, in.minv); !s) return s;
   auto write = [&](rbdgrad_output flag, const auto& value) {
     if (outputs & flag) batch.write(flag, k, value);
   };

@@ -5,6 +5,7 @@
 #include "../support/counting_new.hpp"
 
 #include "../support/test_models.hpp"
+#include "rbdgrad/algorithm/evaluate.hpp"
 #include "rbdgrad/algorithm/fd_derivatives.hpp"
 #include "rbdgrad/algorithm/forward_dynamics.hpp"
 #include "rbdgrad/algorithm/rnea_derivatives.hpp"
@@ -34,6 +35,23 @@ void expect_no_allocation(const std::string& robot) {
   ok &= rnea_derivatives(m, ws, q, qd, u).is_ok();
   ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kTau).is_ok();
   ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kQdd, fext.data(), &minv).is_ok();
+  ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kTau, fext.data(), &minv).is_ok();
+  // the specialized variants an execution plan selects, and evaluate_outputs under a plan
+  ExecutionPlan plan;
+  plan.dqdd_dqd = false;
+  plan.gravity = false;
+  plan.external_forces = ExternalForces::kSomeBodies;
+  plan.fext_bodies.set(m.nv - 1);
+  plan.minv_supplied = true;
+  ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kTau, plan, fext.data(), &minv).is_ok();
+  ok &= evaluate_outputs(m, ws, q, qd, u, InputKind::kTau, kOutputDqddDq | kOutputMinv | kOutputDtauDqd, plan,
+                         fext.data(), &minv)
+            .is_ok();
+  plan.dqdd_dq = false;
+  plan.external_forces = ExternalForces::kAllBodies;
+  plan.minv_supplied = false;
+  ok &= fd_derivatives(m, ws, q, qd, u, InputKind::kQdd, plan, fext.data(), nullptr).is_ok();
+  ok &= evaluate_outputs(m, ws, q, qd, u, InputKind::kTau, kOutputQdd | kOutputTau, plan, fext.data(), nullptr).is_ok();
   const long allocations = testing::g_allocations.load() - before;
   EXPECT_TRUE(ok) << robot;
   EXPECT_EQ(allocations, 0) << robot << " " << scalar_name<S>();

@@ -44,9 +44,11 @@ inline void shift_inertia_add(const Mat6<S>& I, const Vec3<S>& d, Mat6<S>& out) 
 // taken about its own joint point: about the world origin, S^T IA S of a distal joint is the small
 // difference of terms of size m |p|^2, which costs three digits in float (Pinocchio's local frames
 // avoid this too). Used for forward dynamics and for qdd in fd_derivatives.
-template <class S>
-void articulated_body_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qd, const S* tau, const S* fext,
-                           S* qdd) {
+// kFext: the external forces (fext, on every body or on those of `bodies` when not null) enter the
+// bias forces; without, fext is never read. `gravity` as in forward_pass.
+template <class S, bool kFext>
+RBDGRAD_FLATTEN void articulated_body_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qd, const S* tau,
+                                           const S* fext, const BodyMask* bodies, bool gravity, S* qdd) {
   const int n = m.nv;
   // joint-centred axis, bias acceleration and bias force of each body
   for (int i = 0; i < n; ++i) {
@@ -63,8 +65,14 @@ void articulated_body_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
     ws.aba_c[i] = shift_motion<S>(ws.alpha[i], p) * qd[i];
     const Vec6<S> hv = ws.I_joint[i] * v;
     ws.pA[i] = cross_force<S>(v, hv);
-    if (fext) ws.pA[i] -= shift_force<S>(world_force(m, ws, i, fext + 6 * i), p);
     ws.IA[i] = ws.I_joint[i];
+  }
+  // the external forces, about each body's joint point
+  if constexpr (kFext) {
+    const auto one = [&](int i) { ws.pA[i] -= shift_force<S>(world_force(m, ws, i, fext + 6 * i), ws.p[i]); };
+    if (bodies != nullptr) bodies->for_each(n, one);
+    else
+      for (int i = 0; i < n; ++i) one(i);
   }
   // backward pass: articulated inertias and bias forces, children folded into parents
   for (int i = n - 1; i >= 0; --i) {
@@ -87,8 +95,7 @@ void articulated_body_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
     ws.pA[par] += shift_force<S>(pa, d);
   }
   // forward pass: accelerations from the root down, each about its joint point
-  Vec6<S> a_gravity = Vec6<S>::Zero();
-  a_gravity.template tail<3>() = -m.gravity;
+  const Vec6<S> a_gravity = root_acceleration(m, gravity);
   for (int i = 0; i < n; ++i) {
     const int par = m.parent[i];
     Vec6<S> a = par < 0 ? a_gravity : shift_motion<S>(ws.aba_a[par], Vec3<S>(ws.p[i] - ws.p[par]));

@@ -10,8 +10,8 @@ template <class S>
 Status crba(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q) {
   detail::NumericGuard<S> guard("crba");
   // forward pass: placements and body inertias; backward pass: composite inertias, M(r, i) = S_r . Ic_i S_i
-  detail::forward_pass<S, detail::Level::kInertia>(model, ws, q.data(), nullptr, nullptr, nullptr);
-  detail::backward_pass<S, detail::Level::kInertia>(model, ws, nullptr, /*with_mass=*/true, /*with_dq=*/false);
+  detail::forward_pass<S, detail::Level::kInertia>(model, ws, q.data(), nullptr, nullptr);
+  detail::backward_pass<S, detail::Level::kInertia>(model, ws, nullptr, /*with_mass=*/true);
   return guard.finish(ws.M);
 }
 

@@ -6,11 +6,20 @@
 
 #include <cmath>
 
+#include "rbdgrad/execution_plan.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/spatial.hpp"
 #include "rbdgrad/workspace.hpp"
 
 namespace rbdgrad::detail {
+
+// The passes inline everything they call: each stage set is its own instantiation, and GCC's
+// inliner otherwise leaves Eigen's small fixed-size assignments out of line in some of them.
+#if defined(__GNUC__) && !defined(__clang__)
+#define RBDGRAD_FLATTEN __attribute__((flatten))
+#else
+#define RBDGRAD_FLATTEN
+#endif
 
 // What a pass computes, cumulative.
 enum class Level {
@@ -82,15 +91,25 @@ inline Vec6<S> world_force(const ModelTpl<S>& m, const WorkspaceTpl<S>& ws, int 
   return out;
 }
 
+// The acceleration the roots' parents (the world) stand at: -g, the fictitious upward
+// acceleration that stands for gravity, or zero when the plan turns gravity off. A uniform field
+// is one spatial vector for every body in the world frame, so gravity enters only here.
+template <class S>
+inline Vec6<S> root_acceleration(const ModelTpl<S>& m, bool gravity) {
+  Vec6<S> a = Vec6<S>::Zero();
+  if (gravity) a.template tail<3>() = -m.gravity;
+  return a;
+}
+
 // Forward pass over bodies: placement and inertia; at kDynamics also velocity, acceleration
-// (qdd = 0 when qdd is null) and body force; at kDerivatives also alpha, beta and B.
+// (qdd = 0 when qdd is null) and body force without external forces (subtract_external_forces);
+// at kDerivatives also alpha, B, and beta when kBeta (the d/dq columns need it).
 // Initialises the composites (Ic, Bc) with the body's own terms for the backward pass.
 // kForAba: also the inertias about the joint points that articulated_body_pass needs.
-template <class S, Level kLevel, bool kForAba = false>
-void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S* qd, const S* qdd,
-                  const S* fext) {
-  Vec6<S> a_gravity = Vec6<S>::Zero();
-  a_gravity.template tail<3>() = -m.gravity;
+template <class S, Level kLevel, bool kBeta = true, bool kForAba = false>
+RBDGRAD_FLATTEN void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S* qd, const S* qdd,
+                  bool gravity = true) {
+  const Vec6<S> a_gravity = root_acceleration(m, gravity);
   for (int i = 0; i < m.nv; ++i) {
     place_body(m, ws, i, q[i], kForAba);
     ws.Ic[i] = ws.I[i];
@@ -109,10 +128,11 @@ void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S
       ws.h[i].noalias() = ws.I[i] * ws.v[i];
       ws.f[i].noalias() = ws.I[i] * ws.a[i];
       ws.f[i] += cross_force<S>(ws.v[i], ws.h[i]);
-      if (fext) ws.f[i] -= world_force(m, ws, i, fext + 6 * i);
       if constexpr (kLevel == Level::kDerivatives) {
         // beta needs the final accelerations: without qdd, add_acceleration_pass sets it
-        if (qdd) ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, alpha);
+        if constexpr (kBeta) {
+          if (qdd) ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, alpha);
+        }
         // B = v x* I - I v x + h-bar with (v x* I)^T = -I v x
         Mat6<S> C;
         cross_force_columns<S>(ws.v[i], ws.I[i], C);
@@ -125,6 +145,18 @@ void forward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q, const S
       }
     }
   }
+}
+
+// The external forces, after the forward pass, off the body forces (f = I a + v x* I v - fext):
+// every body, or only those of `bodies` when it is not null (the others' fext is never read).
+// Its own loop, so that a call without forces runs none of it.
+template <class S>
+RBDGRAD_FLATTEN void subtract_external_forces(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* fext,
+                                              const BodyMask* bodies) {
+  const auto one = [&](int i) { ws.f[i] -= world_force(m, ws, i, fext + 6 * i); };
+  if (bodies != nullptr) bodies->for_each(m.nv, one);
+  else
+    for (int i = 0; i < m.nv; ++i) one(i);
 }
 
 // Mass matrix entries of column i and its ancestors: M(r, i) = S_r . (Ic_i S_i) for r ancestor-or-self.
@@ -140,11 +172,16 @@ inline void mass_matrix_column(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, int i)
 
 // Backward pass over bodies. Accumulates the subtree force f into the parents and fills
 // tau = S . f when kLevel >= kDynamics; with_mass: composite inertias Ic and M (always at
-// kDerivatives, which needs Ic); at kDerivatives also Bc and dtau_dqd, and dtau_dq when with_dq
-// (it needs beta, i.e. the final accelerations).
-template <class S, Level kLevel>
-void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_out, bool with_mass, bool with_dq) {
+// kDerivatives, which needs Ic). At kDerivatives also Bc, u = Ic S and w = Bc^T S, and the columns
+// asked for: dtau_dqd (kDqd), and dtau_dq (kDq; it needs beta, i.e. the final accelerations).
+template <class S, Level kLevel, bool kDq = true, bool kDqd = true>
+RBDGRAD_FLATTEN void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_out, bool with_mass) {
   with_mass = with_mass || kLevel != Level::kDynamics;
+  // the composites times [S alpha beta] (Ic) and [S alpha] (Bc), only the columns the stages
+  // need, in two small matrix products (they vectorize better than matrix-vector products)
+  constexpr int kIcCols = 1 + (kDqd ? 1 : 0) + (kDq ? 1 : 0);  // S, alpha, beta
+  constexpr int kBcCols = (kDqd ? 1 : 0) + (kDq ? 1 : 0);      // S, alpha
+  constexpr int kIcBeta = kIcCols - 1, kBcAlpha = kBcCols - 1;
   for (int i = m.nv - 1; i >= 0; --i) {
     const int par = m.parent[i];
     const Vec6<S>& Si = ws.axis[i];
@@ -152,16 +189,12 @@ void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_ou
     if constexpr (kLevel != Level::kDerivatives) {
       if (with_mass) mass_matrix_column(m, ws, i);
     } else {
-      // the composites times [S alpha beta] in two small matrix products (they vectorize better
-      // than five matrix-vector products)
-      Eigen::Matrix<S, 6, 3> X;
+      Eigen::Matrix<S, 6, kIcCols> X;
       X.col(0) = Si;
-      X.col(1) = ws.alpha[i];
-      X.col(2) = ws.beta[i];
-      Eigen::Matrix<S, 6, 3> IcX;
+      if constexpr (kDqd) X.col(1) = ws.alpha[i];
+      if constexpr (kDq) X.col(kIcBeta) = ws.beta[i];
+      Eigen::Matrix<S, 6, kIcCols> IcX;
       IcX.noalias() = ws.Ic[i] * X;
-      Eigen::Matrix<S, 6, 2> BcX;
-      BcX.noalias() = ws.Bc[i] * X.template leftCols<2>();
       ws.u[i] = IcX.col(0);
       ws.w[i].noalias() = ws.Bc[i].transpose() * Si;
       for (int r = i; r >= 0; r = m.parent[r]) {
@@ -169,19 +202,27 @@ void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_ou
         ws.M(r, i) = value;
         ws.M(i, r) = value;
       }
-      // column i, rows r ancestor-or-self of i: d tau_r / d qd_i = S_r . (2 Ic alpha + Bc S)
-      const Vec6<S> E = S(2) * IcX.col(1) + BcX.col(0);
-      Vec6<S> Dq;
-      if (with_dq) Dq = cross_force<S>(Si, ws.f[i]) + IcX.col(2) + BcX.col(1);
-      for (int r = i; r >= 0; r = m.parent[r]) {
-        ws.dtau_dqd(r, i) = dot<S>(ws.axis[r], E);
-        if (with_dq) ws.dtau_dq(r, i) = dot<S>(ws.axis[r], Dq);
-      }
-      // row i, columns j strict ancestors of i
-      const Vec6<S> u2 = S(2) * ws.u[i];
-      for (int j = par; j >= 0; j = m.parent[j]) {
-        ws.dtau_dqd(i, j) = dot<S>(u2, ws.alpha[j]) + dot<S>(ws.w[i], ws.axis[j]);
-        if (with_dq) ws.dtau_dq(i, j) = dot<S>(ws.u[i], ws.beta[j]) + dot<S>(ws.w[i], ws.alpha[j]);
+      if constexpr (kBcCols > 0) {
+        Eigen::Matrix<S, 6, kBcCols> Y;
+        if constexpr (kDqd) Y.col(0) = Si;
+        if constexpr (kDq) Y.col(kBcAlpha) = ws.alpha[i];
+        Eigen::Matrix<S, 6, kBcCols> BcY;
+        BcY.noalias() = ws.Bc[i] * Y;
+        // column i, rows r ancestor-or-self of i: d tau_r / d qd_i = S_r . (2 Ic alpha + Bc S),
+        // d tau_r / d q_i = S_r . (S x* f + Ic beta + Bc alpha)
+        Vec6<S> E, Dq;
+        if constexpr (kDqd) E = S(2) * IcX.col(1) + BcY.col(0);
+        if constexpr (kDq) Dq = cross_force<S>(Si, ws.f[i]) + IcX.col(kIcBeta) + BcY.col(kBcAlpha);
+        for (int r = i; r >= 0; r = m.parent[r]) {
+          if constexpr (kDqd) ws.dtau_dqd(r, i) = dot<S>(ws.axis[r], E);
+          if constexpr (kDq) ws.dtau_dq(r, i) = dot<S>(ws.axis[r], Dq);
+        }
+        // row i, columns j strict ancestors of i
+        const Vec6<S> u2 = S(2) * ws.u[i];
+        for (int j = par; j >= 0; j = m.parent[j]) {
+          if constexpr (kDqd) ws.dtau_dqd(i, j) = dot<S>(u2, ws.alpha[j]) + dot<S>(ws.w[i], ws.axis[j]);
+          if constexpr (kDq) ws.dtau_dq(i, j) = dot<S>(ws.u[i], ws.beta[j]) + dot<S>(ws.w[i], ws.alpha[j]);
+        }
       }
     }
     if (par >= 0) {
@@ -194,11 +235,11 @@ void backward_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, VectorX<S>* tau_ou
 
 // With tau as input, the forward pass ran with qdd = 0 and qdd was found afterwards. Adds the
 // motion due to qdd: a += a_qdd, beta from the final accelerations, and I a_qdd either into the
-// body forces (before the backward pass) or into f_qdd (after it, for derivative_dq_pass).
-template <class S>
-void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qdd, bool into_body_force) {
-  Vec6<S> a_gravity = Vec6<S>::Zero();
-  a_gravity.template tail<3>() = -m.gravity;
+// body forces (kIntoBodyForce, before the backward pass) or into f_qdd (after it, for
+// derivative_dq_pass). `gravity` as in forward_pass.
+template <class S, bool kIntoBodyForce>
+RBDGRAD_FLATTEN void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* qdd, bool gravity) {
+  const Vec6<S> a_gravity = root_acceleration(m, gravity);
   for (int i = 0; i < m.nv; ++i) {
     const int par = m.parent[i];
     const Vec6<S>& Si = ws.axis[i];
@@ -209,7 +250,7 @@ void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
     const Vec6<S>& a_par = par < 0 ? a_gravity : ws.a[par];
     ws.beta[i] = cross_motion<S>(a_par, Si) + cross_motion<S>(v_par, ws.alpha[i]);
     ws.a[i] += ws.a_qdd[i];
-    if (into_body_force) ws.f[i].noalias() += ws.I[i] * ws.a_qdd[i];
+    if constexpr (kIntoBodyForce) ws.f[i].noalias() += ws.I[i] * ws.a_qdd[i];
     else ws.f_qdd[i].noalias() = ws.I[i] * ws.a_qdd[i];
   }
 }
@@ -217,7 +258,7 @@ void add_acceleration_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const S* q
 // Second backward pass, after backward_pass ran with qdd = 0 and add_acceleration_pass put the qdd
 // part of the forces in f_qdd: subtree force F = F(qdd = 0) + sum of I a_qdd, then dtau_dq.
 template <class S>
-void derivative_dq_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws) {
+RBDGRAD_FLATTEN void derivative_dq_pass(const ModelTpl<S>& m, WorkspaceTpl<S>& ws) {
   for (int i = m.nv - 1; i >= 0; --i) {
     const int par = m.parent[i];
     const Vec6<S>& Si = ws.axis[i];

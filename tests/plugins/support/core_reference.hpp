@@ -3,6 +3,10 @@
 // selection of tools/cli/evaluator.cpp (which the CPU plugin documents it follows): fd_derivatives
 // for M^-1 and d qdd, forward_dynamics for qdd alone from tau, rnea_derivatives or rnea at that qdd,
 // crba for M when nothing else formed it; plus minverse for M^-1 when the caller supplied one.
+// The derivatives take only the columns asked for (the request's execution plan), as
+// evaluate_outputs does: each column set is its own instantiation, and GCC's fused multiply-adds
+// may round one expression differently in two of them (tests/core/plan_variants_test.cpp checks
+// they agree within 1e-12 in f64).
 #pragma once
 
 #include <cstdint>
@@ -14,6 +18,7 @@
 #include "rbdgrad/algorithm/minverse.hpp"
 #include "rbdgrad/algorithm/rnea.hpp"
 #include "rbdgrad/algorithm/rnea_derivatives.hpp"
+#include "rbdgrad/execution_plan.hpp"
 #include "rbdgrad/plugin_api.h"
 
 namespace rbdgrad::testing {
@@ -38,7 +43,10 @@ Status reference_state(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const Referenc
   bool have_M = false;
   VectorX<S> qdd = in.u;
   if (want(RBDGRAD_OUTPUT_MINV | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD)) {
-    if (Status s = fd_derivatives(m, ws, in.q, in.qd, in.u, tau_input ? InputKind::kTau : InputKind::kQdd, fext, minv); !s)
+    const ExecutionPlan plan = plan_request(m, outputs, fext, minv);
+    if (Status s = fd_derivatives(m, ws, in.q, in.qd, in.u, tau_input ? InputKind::kTau : InputKind::kQdd, plan, fext,
+                                  minv);
+        !s)
       return s;
     have_M = true;
     out[RBDGRAD_OUTPUT_DQDD_DQ] = ws.dqdd_dq;
@@ -56,7 +64,11 @@ Status reference_state(const ModelTpl<S>& m, WorkspaceTpl<S>& ws, const Referenc
   }
   out[RBDGRAD_OUTPUT_QDD] = qdd;
   if (id_derivatives) {
-    if (Status s = rnea_derivatives(m, ws, in.q, in.qd, qdd, fext); !s) return s;
+    const GradientStages columns{want(RBDGRAD_OUTPUT_DTAU_DQ), want(RBDGRAD_OUTPUT_DTAU_DQD), fext != nullptr};
+    const Status s = dispatch_stages(columns, [&]<GradientStages kStages>() {
+      return rnea_derivatives_specialized<kStages, S>(m, ws, in.q, in.qd, qdd, true, fext, nullptr);
+    });
+    if (!s) return s;
     have_M = true;
     out[RBDGRAD_OUTPUT_DTAU_DQ] = ws.dtau_dq;
     out[RBDGRAD_OUTPUT_DTAU_DQD] = ws.dtau_dqd;

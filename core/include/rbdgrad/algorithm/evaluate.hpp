@@ -38,4 +38,15 @@ Status evaluate_outputs(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
                         std::uint32_t outputs, std::type_identity_t<const S*> fext = nullptr,
                         std::type_identity_t<const MatrixX<S>*> supplied_minv = nullptr);
 
+/// The same under an execution plan (a scene's, or plan_request's for this request, which the
+/// overload above uses): every algorithm run takes the plan's gravity and external forces, the
+/// derivatives only the columns the outputs ask for, and a supplied M^-1 only when the plan says so.
+/// Errors: invalid_argument when the plan does not fit the model or the data (check_plan) or
+/// excludes a requested d qdd column.
+template <class S>
+Status evaluate_outputs(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
+                        const ConstVectorRef<S>& qd, const ConstVectorRef<S>& input, InputKind kind,
+                        std::uint32_t outputs, const ExecutionPlan& plan, std::type_identity_t<const S*> fext,
+                        std::type_identity_t<const MatrixX<S>*> supplied_minv);
+
 }  // namespace rbdgrad

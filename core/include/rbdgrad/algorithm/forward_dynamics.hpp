@@ -14,4 +14,10 @@ Status forward_dynamics(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const Con
                         const ConstVectorRef<S>& qd, const ConstVectorRef<S>& tau,
                         std::type_identity_t<const S*> fext = nullptr);
 
+/// The same under an execution plan: its gravity and external forces, as rnea with a plan.
+template <class S>
+Status forward_dynamics(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
+                        const ConstVectorRef<S>& qd, const ConstVectorRef<S>& tau, const ExecutionPlan& plan,
+                        std::type_identity_t<const S*> fext);
+
 }  // namespace rbdgrad

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 
+#include "rbdgrad/execution_plan.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/spatial.hpp"
 #include "rbdgrad/status.hpp"
@@ -22,5 +23,13 @@ template <class S>
 Status rnea(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
             const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd,
             std::type_identity_t<const S*> fext = nullptr);
+
+/// The same under an execution plan: its gravity, and its external forces (none, or on the plan's
+/// bodies only: the others' fext is never read). Errors: invalid_argument when the plan does not fit
+/// the model or has forces and fext is null.
+template <class S>
+Status rnea(const ModelTpl<S>& model, WorkspaceTpl<S>& ws, const ConstVectorRef<S>& q,
+            const ConstVectorRef<S>& qd, const ConstVectorRef<S>& qdd, const ExecutionPlan& plan,
+            std::type_identity_t<const S*> fext);
 
 }  // namespace rbdgrad
