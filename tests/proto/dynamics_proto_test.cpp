@@ -41,11 +41,13 @@ TEST(DynamicsProto, ATensorCarriesTheBatchAsOneBlockAndRoundTrips) {
   static_assert(sizeof(rbdgrad::v1::Dynamics::Stub) > 0);
 }
 
-TEST(DynamicsProto, TheServiceHasItsSixMethods) {
+TEST(DynamicsProto, TheServiceHasItsEightMethods) {
   const auto* service = rbdgrad::v1::ComputeRequest::descriptor()->file()->FindServiceByName("Dynamics");
   ASSERT_NE(service, nullptr);
-  EXPECT_EQ(service->method_count(), 6);
+  EXPECT_EQ(service->method_count(), 8);
   EXPECT_NE(service->FindMethodByName("Calibrate"), nullptr);
+  EXPECT_NE(service->FindMethodByName("ListScenes"), nullptr);
+  EXPECT_NE(service->FindMethodByName("GetScene"), nullptr);
   EXPECT_NE(service->FindMethodByName("ComputeStream"), nullptr);
   EXPECT_TRUE(service->FindMethodByName("ComputeStream")->client_streaming());
   EXPECT_TRUE(service->FindMethodByName("ComputeStream")->server_streaming());
