@@ -175,7 +175,12 @@ void ComputeCall::conclude(Step&& step) noexcept {
 }
 
 void ComputeCall::run(PluginInstance& instance) noexcept {
-  conclude([&] { return run_stage(instance); });
+  conclude([&] {
+    const bool answered = run_stage(instance);
+    // free before the answer goes out: the client's next request must not find it busy
+    if (answered) release_instance();
+    return answered;
+  });
 }
 
 void ComputeCall::submit() {
@@ -216,7 +221,8 @@ void ComputeCall::PartJob::run(PluginInstance& instance) noexcept {
     }
     compute = Clock::now() - started;
   }
-  call->part_done();  // may complete and free the call, and this job with it
+  release_instance();  // this share is done with it, before the call may answer
+  call->part_done();   // may complete and free the call, and this job with it
 }
 
 void ComputeCall::part_done() noexcept {

@@ -32,18 +32,36 @@ bool InstancePool::take_work(PoolJob*& job, std::size_t& instance) {
   job->next_ = nullptr;
   instance = free_.back();
   free_.pop_back();
-  start_running(instance, job->predicted_us_);
+  start_running(instance, *job, job->predicted_us_);
   return true;
 }
 
-void InstancePool::start_running(std::size_t i, double predicted_us) {
-  running_[i] = {Clock::now(), predicted_us};
+void InstancePool::start_running(std::size_t i, PoolJob& job, double predicted_us) {
+  running_[i] = {Clock::now(), predicted_us, ++next_lease_};
+  job.pool_ = this;
+  job.instance_ = i;
+  job.lease_ = next_lease_;
 }
 
-void InstancePool::give_back(std::size_t i) {
+void PoolJob::release_instance() noexcept {
+  if (pool_ == nullptr) return;
+  InstancePool* pool = std::exchange(pool_, nullptr);
+  pool->give_back(instance_, lease_);
+}
+
+void InstancePool::run_on(PoolJob& job, std::size_t i) {
+  // the job may be gone after run (and its fields with it): the lease is read first
+  const std::uint64_t lease = job.lease_;
+  job.run(*instances_[i]);
+  give_back(i, lease);
+}
+
+void InstancePool::give_back(std::size_t i, std::uint64_t lease) {
   bool queued = false;
   {
     std::lock_guard lock(mutex_);
+    if (running_[i].lease != lease) return;  // given back already (release_instance)
+    running_[i].lease = 0;
     free_.push_back(i);
     queued = head_ != nullptr;
     pending_us_ -= running_[i].predicted_us;
@@ -65,7 +83,7 @@ void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predict
     if (num_states <= options_.inline_max_states && head_ == nullptr && !free_.empty()) {
       instance = free_.back();
       free_.pop_back();
-      start_running(instance, predicted_us);
+      start_running(instance, job, predicted_us);
     } else {
       job.next_ = nullptr;
       if (tail_ != nullptr) {
@@ -81,8 +99,7 @@ void InstancePool::submit(PoolJob& job, std::uint64_t num_states, double predict
     work_.notify_one();
     return;
   }
-  job.run(*instances_[instance]);  // the job may be gone after this
-  give_back(instance);
+  run_on(job, instance);
 }
 
 double InstancePool::pending_locked() const {
@@ -120,8 +137,7 @@ void InstancePool::thread_loop() {
       work_.wait(lock, [&] { return take_work(job, instance) || (stop_ && head_ == nullptr); });
       if (job == nullptr) return;
     }
-    job->run(*instances_[instance]);  // the job may be gone after this
-    give_back(instance);
+    run_on(*job, instance);
   }
 }
 

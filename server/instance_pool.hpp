@@ -21,6 +21,8 @@ namespace rbdgrad::server {
 // One unit of work. The submitter owns it and keeps it alive until run() has returned; run()
 // usually completes the request and lets its owner go, so the pool never touches a job after
 // calling run().
+class InstancePool;
+
 class PoolJob {
  public:
   /// Runs with exclusive use of `instance`. Must not throw.
@@ -32,10 +34,19 @@ class PoolJob {
   PoolJob& operator=(const PoolJob&) = default;
   virtual ~PoolJob() = default;
 
+  /// From run(), once the job is done with the instance and before it answers its request: the
+  /// instance is free again at once, so that the client's next request does not find it busy (and
+  /// routed elsewhere). Not after the job was submitted again; a second call does nothing.
+  void release_instance() noexcept;
+
  private:
   friend class InstancePool;
   PoolJob* next_ = nullptr;  // intrusive FIFO link: queueing allocates nothing
   double predicted_us_ = 0;  // the scheduler's prediction, counted in the pool's pending work
+  // where the job runs, set by the pool before run()
+  InstancePool* pool_ = nullptr;
+  std::size_t instance_ = 0;
+  std::uint64_t lease_ = 0;
 };
 
 // What a pool has to do, for the scheduler and GetServerInfo.
@@ -84,20 +95,26 @@ class InstancePool {
   double predicted_wait_us() const;
 
  private:
+  friend class PoolJob;
   using Clock = std::chrono::steady_clock;
-  // what runs on instance i: since when, and its prediction
+  // what runs on instance i: since when, its prediction, and the lease it runs under (0: none)
   struct Running {
     Clock::time_point since{};
     double predicted_us = 0;
+    std::uint64_t lease = 0;
   };
 
   void thread_loop();
   // under mutex_: hands a free instance to the queue's head, if both exist
   bool take_work(PoolJob*& job, std::size_t& instance);
-  // under mutex_: marks instance i busy with a job predicted to take predicted_us
-  void start_running(std::size_t i, double predicted_us);
-  // returns instance i and takes the finished job's prediction off the pending work
-  void give_back(std::size_t i);
+  // under mutex_: marks instance i busy with `job`, predicted to take predicted_us, under a new
+  // lease that the job carries
+  void start_running(std::size_t i, PoolJob& job, double predicted_us);
+  // returns instance i and takes the finished job's prediction off the pending work, once per
+  // lease: after the job's release_instance(), the pool's own give-back does nothing
+  void give_back(std::size_t i, std::uint64_t lease);
+  // runs `job` on instance i, then gives the instance back (unless the job did)
+  void run_on(PoolJob& job, std::size_t i);
   // under mutex_: pending_us_ plus what the running jobs have overrun their predictions by
   double pending_locked() const;
 
@@ -110,6 +127,7 @@ class InstancePool {
   std::condition_variable work_;       // a job and a free instance, or stop_
   std::vector<std::size_t> free_;      // indices of free instances; (size()) reserved once
   std::vector<Running> running_;       // (size()), entry i meaningful while i is not free
+  std::uint64_t next_lease_ = 0;
   PoolJob* head_ = nullptr;            // FIFO of waiting jobs
   PoolJob* tail_ = nullptr;
   bool stop_ = false;

@@ -62,6 +62,50 @@ class RecordingJob final : public PoolJob {
   std::chrono::microseconds work_;
 };
 
+// A job that gives its instance back before it returns (as a request does before it answers),
+// then looks at the pool: the instance is free, and a second job runs on it meanwhile.
+class ReleasingJob final : public PoolJob {
+ public:
+  ReleasingJob(InstancePool& pool, PoolJob& next) : pool_(pool), next_(next) {}
+  void run(PluginInstance&) noexcept override {
+    release_instance();
+    release_instance();  // a second call does nothing
+    load_after_release = pool_.load();
+    wait_after_release = pool_.predicted_wait_us();
+    pool_.submit(next_, 1, 100.0);  // inline: the released instance is free
+  }
+  PoolLoad load_after_release;
+  double wait_after_release = -1;
+
+ private:
+  InstancePool& pool_;
+  PoolJob& next_;
+};
+
+TEST(InstancePool, AJobThatReleasesItsInstanceFreesItBeforeItReturns) {
+  std::unique_ptr<Plugin> plugin;
+  auto instances = fake_instances(1, plugin);
+  Recorder rec;
+  InstancePool pool(std::move(instances), InstancePool::Options{16});
+  RecordingJob next(1, rec);
+  ReleasingJob job(pool, next);
+  pool.submit(job, 1, 500.0);
+  EXPECT_EQ(job.load_after_release.running, 0u) << "released: not running any more";
+  EXPECT_EQ(job.load_after_release.pending_us, 0.0) << "its prediction is off the pending work";
+  EXPECT_EQ(job.wait_after_release, 0.0);
+  EXPECT_TRUE(next.done) << "the second job ran inline on the released instance";
+  // the pool's own give-back after run() did not free the instance a second time
+  const PoolLoad after = pool.load();
+  EXPECT_EQ(after.running, 0u);
+  EXPECT_EQ(after.pending_us, 0.0);
+  // and the instance is used by one job at a time afterwards
+  RecordingJob a(2, rec), b(3, rec, std::chrono::microseconds(20000));
+  pool.submit(b, 100);  // on the pool thread
+  pool.submit(a, 1);    // inline if the instance is free, else after b
+  while (!a.done || !b.done) std::this_thread::yield();
+  EXPECT_EQ(rec.overlaps.load(), 0);
+}
+
 TEST(InstancePool, RunsSmallJobsInlineAndLargeOnesOnItsThread) {
   std::unique_ptr<Plugin> plugin;
   auto instances = fake_instances(1, plugin);
