@@ -77,14 +77,14 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // gradient batches of at least this many states on small models run the one-thread kernel
     // (0: never). chunk_min_states, max_chunks: batches larger than one chunk go through the
     // pipeline in up to max_chunks chunks of at least chunk_min_states states (0: by the model's
-    // size). f32_compute: auto
-    // (default), f32 or f64: what f32 gradient batches compute in (cuda::F32Compute). specialize: compile the block kernel for the robot at load (NVRTC; default
+    // size). f32_compute: auto (default), f32 or f64: what f32 gradient batches compute in
+    // (cuda::F32Compute). specialize: compile the block kernel for the robot at load (NVRTC; default
     // true); kernel_cache_dir: where compiled kernels are kept across restarts ("" = not kept;
     // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
-                                           "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute", "specialize",
-                                           "kernel_cache_dir"});
+                                           "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
+                                           "specialize", "kernel_cache_dir"});
         !s)
       return s;
     bool specialize = true;
