@@ -33,6 +33,7 @@
 
 #include "rbdgrad/algorithm/fd_derivatives.hpp"
 #include "rbdgrad/embedded_robots.hpp"
+#include "../../tests/support/test_models.hpp"
 #include "rbdgrad/execution_plan.hpp"
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/scalar_types.hpp"
@@ -105,19 +106,6 @@ Model load(std::string_view name) {
     std::exit(1);
   }
   return m;
-}
-
-// talos_reduced's head, grippers and wrists (arm joints 5-7), locked at the middle of their limits
-std::vector<LockedJoint> hands_and_head(const Model& talos) {
-  std::vector<LockedJoint> locked;
-  for (const JointInfo& j : talos.joints) {
-    const std::string& n = j.name;
-    const bool wrist =
-        n.starts_with("arm") && (n.ends_with("_5_joint") || n.ends_with("_6_joint") || n.ends_with("_7_joint"));
-    if (n.starts_with("head") || n.starts_with("gripper") || wrist)
-      locked.push_back({n, 0.5 * (j.lower_limit + j.upper_limit)});
-  }
-  return locked;
 }
 
 // the bodies a foot contact pushes on: hyq's lower legs, talos's last leg links, iiwa14's last link
@@ -304,7 +292,7 @@ int main(int argc, char** argv) {
   for (std::string_view name : {"iiwa14", "talos_reduced", "hyq"}) robots.push_back(make_robot(name, load(name)));
   const Model& talos = robots[1].model;
   Model locked;
-  if (Status s = lock_joints(talos, hands_and_head(talos), locked); !s) {
+  if (Status s = lock_joints(talos, testing::talos_hands_and_head(talos), locked); !s) {
     std::fprintf(stderr, "scenes_bench: %s\n", s.to_string().c_str());
     return 1;
   }
@@ -325,7 +313,8 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&n_args, args.data());
   if (benchmark::ReportUnrecognizedArguments(n_args, args.data())) return 1;
   std::string locked_names;
-  for (const LockedJoint& l : hands_and_head(talos)) locked_names += (locked_names.empty() ? "" : " ") + l.name;
+  for (const LockedJoint& l : testing::talos_hands_and_head(talos))
+    locked_names += (locked_names.empty() ? "" : " ") + l.name;
   benchmark::AddCustomContext("talos_reduced_locked", locked_names);
   for (const Robot& r : robots) {
     std::string feet;

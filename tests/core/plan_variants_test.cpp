@@ -26,20 +26,6 @@ namespace {
 
 constexpr double kPoison = -7777.0;  // in the outputs a variant must not write
 
-// talos_reduced's hands (each gripper and the wrist: arm joints 5-7) and head, locked at the middle
-// of their limits
-std::vector<LockedJoint> talos_hands_and_head(const Model& talos) {
-  std::vector<LockedJoint> locked;
-  for (const JointInfo& j : talos.joints) {
-    const std::string& n = j.name;
-    const bool wrist =
-        n.starts_with("arm") && (n.ends_with("_5_joint") || n.ends_with("_6_joint") || n.ends_with("_7_joint"));
-    if (n.starts_with("head") || n.starts_with("gripper") || wrist)
-      locked.push_back({n, 0.5 * (j.lower_limit + j.upper_limit)});
-  }
-  return locked;
-}
-
 struct Robot {
   std::string label;
   Model model;
@@ -51,7 +37,7 @@ const std::vector<Robot>& robots() {
     for (const char* name : {"iiwa14", "talos_reduced", "hyq"}) r.push_back({name, testing::load_embedded(name)});
     Model locked;
     const Model& talos = r[1].model;
-    if (!lock_joints(talos, talos_hands_and_head(talos), locked)) throw std::runtime_error("lock_joints failed");
+    if (!lock_joints(talos, testing::talos_hands_and_head(talos), locked)) throw std::runtime_error("lock_joints failed");
     r.push_back({"talos_reduced, hands and head locked", locked});
     // more bodies than one 64-bit word of the force mask
     r.push_back({"random tree of 100 joints", testing::random_model(5, 100, testing::TreeShape::kBranching)});
@@ -403,7 +389,7 @@ TEST(PlanVariants, RneaAndForwardDynamicsTakeThePlansGravityAndForces) {
 // d qdd/d q = -M_kk^-1 (d tau/d q)_kk at the reduced model's qdd.
 TEST(PlanVariants, LockedJointsAreTheFullComputationSelected) {
   const Model& talos = robots()[1].model;
-  const std::vector<LockedJoint> locked = talos_hands_and_head(talos);
+  const std::vector<LockedJoint> locked = testing::talos_hands_and_head(talos);
   ASSERT_EQ(locked.size(), 10u);  // head 1-2, and per arm the wrist (5-7) and the gripper
   Model reduced;
   std::vector<int> kept;

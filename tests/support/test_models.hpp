@@ -6,6 +6,7 @@
 #include <string>
 
 #include "rbdgrad/embedded_robots.hpp"
+#include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/urdf.hpp"
 
@@ -16,6 +17,20 @@ inline Model load_embedded(const std::string& name) {
   Status s = load_urdf_string(std::string(embedded_robot_urdf(name)), name + ".urdf", model);
   if (!s) throw std::runtime_error(s.to_string());
   return model;
+}
+
+// talos_reduced's hands (each gripper and the wrist: arm joints 5-7) and head, locked at the middle
+// of their limits
+inline std::vector<LockedJoint> talos_hands_and_head(const Model& talos) {
+  std::vector<LockedJoint> locked;
+  for (const JointInfo& j : talos.joints) {
+    const std::string& n = j.name;
+    const bool wrist =
+        n.starts_with("arm") && (n.ends_with("_5_joint") || n.ends_with("_6_joint") || n.ends_with("_7_joint"));
+    if (n.starts_with("head") || n.starts_with("gripper") || wrist)
+      locked.push_back({n, 0.5 * (j.lower_limit + j.upper_limit)});
+  }
+  return locked;
 }
 
 inline Eigen::Matrix3d random_rotation(std::mt19937& rng) {
