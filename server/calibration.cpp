@@ -71,9 +71,25 @@ RequestBatch calibration_batch(const ServedModel& model, std::uint32_t precision
   v1::ComputeRequest request;
   request.set_num_states(static_cast<std::uint32_t>(n));
   request.set_input_kind(v1::INPUT_KIND_TAU);
-  for (v1::Output o : {v1::OUTPUT_QDD, v1::OUTPUT_DQDD_DQ, v1::OUTPUT_DQDD_DQD}) request.add_outputs(o);
+  // a scene's batches follow its plan (ABI 1.3): its outputs, M^-1 when supplied (the identity:
+  // the time does not depend on it), forces when it has force links (zero)
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+  std::uint32_t outputs = gradient;
+  std::vector<double> minv, fext;
+  if (model.scene) {
+    outputs = (model.scene->outputs & gradient) != 0 ? model.scene->outputs & gradient : model.scene->outputs;
+    if (model.scene->minv_supplied) {
+      minv.assign(n * nv * nv, 0.0);
+      for (std::size_t e = 0; e < minv.size(); e += nv + 1) minv[e] = 1.0;
+    }
+    if (!model.scene->force_bodies.empty()) fext.assign(n * nv * 6, 0.0);
+  }
+  for (std::uint32_t flag = 1; flag <= RBDGRAD_OUTPUT_M; flag <<= 1)
+    if (outputs & flag) request.add_outputs(output_enum(flag));
   for (const auto& [tensor, values] : {std::pair{request.mutable_q(), &q}, std::pair{request.mutable_qd(), &qd},
-                                       std::pair{request.mutable_u(), &tau}}) {
+                                       std::pair{request.mutable_u(), &tau}, std::pair{request.mutable_minv(), &minv},
+                                       std::pair{request.mutable_fext(), &fext}}) {
+    if (values->empty()) continue;
     tensor->set_type(v1::SCALAR_TYPE_F64);
     tensor->set_data(values->data(), values->size() * sizeof(double));
   }

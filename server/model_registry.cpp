@@ -2,6 +2,7 @@
 #include "model_registry.hpp"
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <optional>
 #include <set>
 #include <utility>
@@ -21,7 +22,14 @@ ServedModel::ServedModel(std::size_t index_in, std::string name_in, std::string 
       model(std::move(model_in)),
       desc(model),
       summary(model_summary(model)),
-      scene(std::move(scene_in)) {}
+      scene(std::move(scene_in)) {
+  // a scene's backends get its plan (ABI 1.3) and may build code without what it excludes
+  if (scene) {
+    std::vector<std::uint32_t> bodies(scene->force_bodies.begin(), scene->force_bodies.end());
+    std::sort(bodies.begin(), bodies.end());
+    desc.set_plan(scene->outputs, scene->minv_supplied, std::move(bodies));
+  }
+}
 
 namespace {
 

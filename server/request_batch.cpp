@@ -160,6 +160,12 @@ uint32_t output_flag(v1::Output output) noexcept {
   return 0;
 }
 
+v1::Output output_enum(uint32_t flag) noexcept {
+  for (const OutputSpec& s : kOutputs)
+    if (s.flag == flag) return s.output;
+  return v1::OUTPUT_UNSPECIFIED;
+}
+
 bool is_matrix_output(v1::Output output) noexcept {
   for (const OutputSpec& s : kOutputs)
     if (s.output == output) return s.matrix;

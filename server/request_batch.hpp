@@ -15,6 +15,8 @@ namespace rbdgrad::server {
 
 // The rbdgrad_output bit for a proto Output; 0 for OUTPUT_UNSPECIFIED and unknown values.
 uint32_t output_flag(rbdgrad::v1::Output output) noexcept;
+/// The inverse: RBDGRAD_OUTPUT_DQDD_DQ -> OUTPUT_DQDD_DQ; OUTPUT_UNSPECIFIED for anything but one flag.
+rbdgrad::v1::Output output_enum(uint32_t flag) noexcept;
 // The response's tensor of a proto Output; nullptr for OUTPUT_UNSPECIFIED and unknown values.
 rbdgrad::v1::Tensor* response_tensor(rbdgrad::v1::ComputeResponse& response, rbdgrad::v1::Output output);
 // Whether an output is nv x nv per state (else nv).

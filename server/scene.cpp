@@ -6,6 +6,7 @@
 
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/plugin_api.h"
+#include "request_batch.hpp"
 
 namespace rbdgrad::server {
 namespace {
@@ -108,8 +109,8 @@ Status apply_scene(const SceneInfo& scene, const std::string& name, int nv, v1::
                             request.model() + "' (leave model empty or name the scene's)");
   // outputs: the scene's, or a subset of them
   if (request.outputs_size() == 0) {
-    for (int k = 0; k < 8; ++k)
-      if (scene.outputs & (1u << k)) request.add_outputs(static_cast<v1::Output>(k + 1));
+    for (std::uint32_t flag = 1; flag <= RBDGRAD_OUTPUT_M; flag <<= 1)
+      if (scene.outputs & flag) request.add_outputs(output_enum(flag));
   } else {
     for (int i = 0; i < request.outputs_size(); ++i) {
       const int o = request.outputs(i);

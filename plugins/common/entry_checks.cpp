@@ -27,7 +27,7 @@ bool instance_info_has_detail(const rbdgrad_instance_info& info) {
 
 Status check_can_run_question(const rbdgrad_model_desc* model, std::uint64_t n) {
   if (model == nullptr) return invalid_argument("model is NULL");
-  if (Status s = check_struct_size("model_desc", model->struct_size, sizeof(rbdgrad_model_desc)); !s) return s;
+  if (Status s = check_struct_size("model_desc", model->struct_size, offsetof(rbdgrad_model_desc, plan)); !s) return s;
   if (model->nv < 1) return invalid_argument("model_desc.nv is 0");
   if (n < 1) return invalid_argument("n is 0: a batch holds at least one state");
   return Status::ok();

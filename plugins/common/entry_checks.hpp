@@ -21,8 +21,8 @@ Status check_instance_info(const rbdgrad_instance_info* info);
 /// Whether `info` (checked) has room for the 1.2 field detail.
 bool instance_info_has_detail(const rbdgrad_instance_info& info);
 
-/// can_run's model and n, before the backend's own answer: a model (not NULL, of at least this
-/// build's size, nv >= 1) and n >= 1.
+/// can_run's model and n, before the backend's own answer: a model (not NULL, of at least the 1.2
+/// description's size, nv >= 1) and n >= 1.
 Status check_can_run_question(const rbdgrad_model_desc* model, std::uint64_t n);
 
 }  // namespace rbdgrad::plugin

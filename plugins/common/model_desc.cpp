@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>  // determinant
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <tuple>
 #include <utility>
@@ -73,7 +74,8 @@ ModelDesc::ModelDesc(const Model& model) : name_(model.name) {
 ModelDesc::ModelDesc(const ModelDesc& other)
     : name_(other.name_), parent_(other.parent_), joint_type_(other.joint_type_),
       joint_rotation_(other.joint_rotation_), joint_translation_(other.joint_translation_), mass_(other.mass_),
-      com_(other.com_), inertia_com_(other.inertia_com_), link_rotation_(other.link_rotation_), desc_(other.desc_) {
+      com_(other.com_), inertia_com_(other.inertia_com_), link_rotation_(other.link_rotation_), has_plan_(other.has_plan_), plan_(other.plan_),
+      fext_bodies_(other.fext_bodies_), desc_(other.desc_) {
   point_desc();
 }
 
@@ -82,7 +84,8 @@ ModelDesc::ModelDesc(ModelDesc&& other) noexcept
     : name_(std::move(other.name_)), parent_(std::move(other.parent_)), joint_type_(std::move(other.joint_type_)),
       joint_rotation_(std::move(other.joint_rotation_)), joint_translation_(std::move(other.joint_translation_)),
       mass_(std::move(other.mass_)), com_(std::move(other.com_)), inertia_com_(std::move(other.inertia_com_)),
-      link_rotation_(std::move(other.link_rotation_)), desc_(other.desc_) {
+      link_rotation_(std::move(other.link_rotation_)), has_plan_(other.has_plan_), plan_(other.plan_),
+      fext_bodies_(std::move(other.fext_bodies_)), desc_(other.desc_) {
   point_desc();
   other.point_desc();
 }
@@ -103,6 +106,9 @@ ModelDesc& ModelDesc::operator=(ModelDesc&& other) noexcept {
   com_ = std::move(other.com_);
   inertia_com_ = std::move(other.inertia_com_);
   link_rotation_ = std::move(other.link_rotation_);
+  has_plan_ = other.has_plan_;
+  plan_ = other.plan_;
+  fext_bodies_ = std::move(other.fext_bodies_);
   desc_ = other.desc_;
   point_desc();
   other.point_desc();
@@ -121,14 +127,27 @@ void ModelDesc::point_desc() {
   desc_.com = com_.data();
   desc_.inertia_com = inertia_com_.data();
   desc_.link_rotation = link_rotation_.data();
+  plan_.struct_size = sizeof(rbdgrad_plan);
+  plan_.fext_body_count = static_cast<std::uint32_t>(fext_bodies_.size());
+  plan_.fext_bodies = fext_bodies_.empty() ? nullptr : fext_bodies_.data();
+  desc_.plan = has_plan_ ? &plan_ : nullptr;
+}
+
+void ModelDesc::set_plan(std::uint32_t outputs, bool minv_supplied, std::vector<std::uint32_t> fext_bodies) {
+  has_plan_ = true;
+  plan_.outputs = outputs;
+  plan_.minv_supplied = minv_supplied ? 1 : 0;
+  fext_bodies_ = std::move(fext_bodies);
+  point_desc();
 }
 
 Status model_from_desc(const rbdgrad_model_desc& d, Model& out) {
   // the header fields first: nothing else can be read safely without them
-  if (d.struct_size < sizeof(rbdgrad_model_desc))
+  // a 1.2 host's description ends before the plan (plan_from_desc reads it)
+  if (d.struct_size < offsetof(rbdgrad_model_desc, plan))
     return invalid_argument("model_desc.struct_size is " + std::to_string(d.struct_size) + ", expected at least " +
-                            std::to_string(sizeof(rbdgrad_model_desc)) + " (API " +
-                            std::to_string(RBDGRAD_PLUGIN_API_MAJOR) + "." + std::to_string(RBDGRAD_PLUGIN_API_MINOR) + ")");
+                            std::to_string(offsetof(rbdgrad_model_desc, plan)) + " (API " +
+                            std::to_string(RBDGRAD_PLUGIN_API_MAJOR) + ".2)");
   if (d.name == nullptr) return invalid_argument("model_desc.name is NULL");
   if (d.nv < 1) return invalid_argument("model_desc.nv is 0: a model needs at least one moving joint");
   if (d.nv > kMaxNv)

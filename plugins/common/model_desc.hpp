@@ -27,6 +27,11 @@ class ModelDesc {
   /// Valid while this object lives and is not modified.
   const rbdgrad_model_desc& desc() const { return desc_; }
 
+  /// Adds a plan (ABI 1.3) that every batch of the instances made from this description follows:
+  /// the outputs they may ask for, whether they bring M^-1, the bodies that receive forces
+  /// (ascending; empty = none).
+  void set_plan(std::uint32_t outputs, bool minv_supplied, std::vector<std::uint32_t> fext_bodies);
+
  private:
   void point_desc();
 
@@ -39,6 +44,9 @@ class ModelDesc {
   std::vector<double> com_;                 // (3 nv)
   std::vector<double> inertia_com_;         // (9 nv) row-major
   std::vector<double> link_rotation_;       // (9 nv) row-major
+  bool has_plan_ = false;
+  rbdgrad_plan plan_{};
+  std::vector<std::uint32_t> fext_bodies_;  // the plan's
   rbdgrad_model_desc desc_{};
 };
 

@@ -20,16 +20,17 @@ template <> const ModelTpl<double>& CpuInstance::model<double>() const { return 
 template <> const ModelTpl<float>& CpuInstance::model<float>() const { return model_f32_; }
 template <> const ModelTpl<Q16_16>& CpuInstance::model<Q16_16>() const { return model_fixed_; }
 
-CpuInstance::CpuInstance(const Model& model, std::size_t threads, std::chrono::microseconds idle_poll)
-    : model_(model), model_f32_(model.cast<float>()), model_fixed_(model.cast<Q16_16>()),
+CpuInstance::CpuInstance(const Model& model, std::size_t threads, std::chrono::microseconds idle_poll,
+                         std::optional<BatchPlan> plan)
+    : model_(model), plan_(std::move(plan)), model_f32_(model.cast<float>()), model_fixed_(model.cast<Q16_16>()),
       chunks_(std::max<std::size_t>(threads, 1)), pool_(threads, idle_poll) {
   for (std::size_t w = 0; w < pool_.size(); ++w) workers_.push_back(std::make_unique<Worker>(*this));
 }
 
 Status CpuInstance::create(const Model& model, std::size_t threads, std::unique_ptr<CpuInstance>& out,
-                           std::chrono::microseconds idle_poll) {
+                           std::chrono::microseconds idle_poll, std::optional<BatchPlan> plan) {
   try {
-    out.reset(new CpuInstance(model, threads, idle_poll));
+    out.reset(new CpuInstance(model, threads, idle_poll, std::move(plan)));
   } catch (const std::system_error& e) {
     return Status(StatusCode::kInternal, "cannot start " + std::to_string(threads) + " worker threads: " + e.what());
   }
@@ -38,6 +39,8 @@ Status CpuInstance::create(const Model& model, std::size_t threads, std::unique_
 
 Status CpuInstance::compute(const rbdgrad_batch* batch) {
   if (Status s = validate_batch(batch, model_.nv, kAllPrecisions, kAllOutputs); !s) return s;
+  if (plan_)
+    if (Status s = check_batch_plan(*batch, *plan_); !s) return s;
   switch (batch->precision) {
     case RBDGRAD_PRECISION_F64: return compute_typed<double>(*batch);
     case RBDGRAD_PRECISION_F32: return compute_typed<float>(*batch);
@@ -54,8 +57,10 @@ Status CpuInstance::compute_typed(const rbdgrad_batch& batch) {
   const std::size_t tasks = std::min(n, pool_.size());
   // chunk t holds states [t * base + min(t, extra), ...): sizes differ by one at most
   const std::size_t base = n / tasks, extra = n % tasks;
-  // what the batch's outputs, fext and M^-1 need: every state runs the same specialized path
-  const ExecutionPlan plan = StateEvaluator<S>::plan(m, batch);
+  // what the batch's outputs, fext and M^-1 need (and a scene's forces, on its bodies only): every
+  // state runs the same specialized path
+  const ExecutionPlan plan =
+      plan_ ? plan_->execution_plan(StateEvaluator<S>::plan(m, batch)) : StateEvaluator<S>::plan(m, batch);
   pool_.run(tasks, [&](std::size_t task, std::size_t worker) {
     ChunkResult& result = chunks_[task];
     result.failures = 0;

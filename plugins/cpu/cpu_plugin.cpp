@@ -2,8 +2,10 @@
 // Q16.16 fixed point (a bit-exact software model of the FPGA kernels' arithmetic).
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <thread>
 
+#include "common/batch_plan.hpp"
 #include "common/batch_view.hpp"
 #include "common/entry_checks.hpp"
 #include "common/error.hpp"
@@ -72,9 +74,12 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_uint(options, "idle_poll_us", 0, kMaxIdlePollUs, idle_poll_us); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
+    std::optional<BatchPlan> plan;
+    if (Status s = plan_from_desc(*desc, kAllOutputs, plan); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
     if (Status s = CpuInstance::create(model, threads, made->cpu,
-                                       std::chrono::microseconds(static_cast<std::int64_t>(idle_poll_us)));
+                                       std::chrono::microseconds(static_cast<std::int64_t>(idle_poll_us)),
+                                       std::move(plan));
         !s)
       return s;
     *instance = made.release();

@@ -217,6 +217,13 @@ cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const Bloc
                   : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
 }
 
+int CudaInstance::block_stages() const {
+  if (!plan_) return block_stages::kPerBatch;
+  return (plan_->wants(RBDGRAD_OUTPUT_DQDD_DQ) ? block_stages::kDq : 0) |
+         (plan_->wants(RBDGRAD_OUTPUT_DQDD_DQD) ? block_stages::kDqd : 0) |
+         (plan_->minv_supplied ? block_stages::kMinvSupplied : 0);
+}
+
 Status CudaInstance::specialize(const std::string& cache_dir) {
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
   Status first = Status::ok();
@@ -230,7 +237,8 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
                                                  : scalars == KernelScalars::kF64 ? specialized_f64_
                                                                                   : specialized_f64_for_f32_;
     k.reset();
-    const Status s = SpecializedBlockKernel::load(model_, scalars, device_, max_shared_bytes_, cache_dir, k);
+    const Status s =
+        SpecializedBlockKernel::load(model_, scalars, block_stages(), device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
@@ -243,12 +251,15 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     if (!k->warning().empty()) parts += ", " + k->warning();
   }
   kernel_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
-                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "");
+                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "") +
+                        (plan_ ? ", " + block_stages_text(block_stages()) : "");
   return first;
 }
 
 Status CudaInstance::compute(const rbdgrad_batch* batch) {
   if (Status s = plugin::validate_batch(batch, model_.nv, kPrecisions, plugin::kAllOutputs); !s) return s;
+  if (plan_)
+    if (Status s = plugin::check_batch_plan(*batch, *plan_); !s) return s;
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
   if (batch->precision == RBDGRAD_PRECISION_F64) return compute_typed<double>(*batch);
   return compute_typed<float>(*batch);

@@ -14,9 +14,11 @@
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "block_launch.hpp"
+#include "common/batch_plan.hpp"
 #include "device/fused_state.hpp"
 #include "device_memory.hpp"
 #include "specialized_kernel.hpp"
@@ -135,6 +137,12 @@ class CudaInstance {
   /// "state 3: fd_derivatives: result is not finite (NaN or Inf)". Not reentrant.
   Status compute(const rbdgrad_batch* batch);
 
+  /// Fixes what every batch computes (a scene's plan, ABI 1.3): compute() then refuses batches that
+  /// do not follow it, and specialize() compiles the block kernel with the plan's stages only.
+  void set_plan(std::optional<plugin::BatchPlan> plan) { plan_ = std::move(plan); }
+  /// The plan's block_stages, or kPerBatch without a plan.
+  int block_stages() const;
+
   /// Compiles the block kernel for this robot in both precisions (SpecializedBlockKernel, NVRTC),
   /// from `cache_dir` when it holds them ("" = no disk cache). Until then, and for a precision
   /// where it fails, the generic kernel runs; kernel_description() says which runs and why.
@@ -184,6 +192,7 @@ class CudaInstance {
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
   Model model_;
+  std::optional<plugin::BatchPlan> plan_;  // a scene's (set_plan)
   int device_;
   std::string device_name_;
   std::size_t workspace_bytes_;

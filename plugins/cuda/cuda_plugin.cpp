@@ -2,9 +2,11 @@
 // per instance, in f64 and f32. Without a driver or GPU the library still loads, and every
 // instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
+#include "common/batch_plan.hpp"
 #include "common/batch_view.hpp"
 #include "common/entry_checks.hpp"
 #include "common/error.hpp"
@@ -128,12 +130,15 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
+    std::optional<BatchPlan> plan;
+    if (Status s = plan_from_desc(*desc, kAllOutputs, plan); !s) return s;
     auto made = std::make_unique<rbdgrad_instance>();
     if (Status s = cuda::CudaInstance::create(model, static_cast<int>(device), made->gpu,
                                               static_cast<std::size_t>(workspace_mib) << 20);
         !s)
       return s;
     if (Status s = made->gpu->set_kernel_options(kernel); !s) return s;
+    made->gpu->set_plan(std::move(plan));
     // a kernel that cannot be compiled leaves the generic one, and the description says why
     if (specialize) (void)made->gpu->specialize(cache_dir);
     *instance = made.release();

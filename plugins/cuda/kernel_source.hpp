@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "device/block_stages.hpp"
 #include "nvrtc_compiler.hpp"
 #include "rbdgrad/model.hpp"
 
@@ -18,8 +19,12 @@ enum class KernelScalars {
 };
 const char* kernel_scalars_name(KernelScalars scalars);  // "f64", "f32", "f64 for f32"
 
+/// "stages per batch", "stages fixed: d/dq, M^-1 computed": a kernel's block_stages, for logs.
+std::string block_stages_text(int stages);
+
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for
-/// compute capability 9.0).
-NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch);
+/// compute capability 9.0); `stages` a scene's fixed block_stages, or kPerBatch.
+NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch,
+                                  int stages = block_stages::kPerBatch);
 
 }  // namespace rbdgrad::cuda

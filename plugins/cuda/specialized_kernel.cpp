@@ -35,7 +35,8 @@ Status load_cubin(const NvrtcOutput& compiled, int device, std::size_t max_share
 
 }  // namespace
 
-Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int device, std::size_t max_shared_bytes,
+Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, int device,
+                                    std::size_t max_shared_bytes,
                                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   const auto start = std::chrono::steady_clock::now();
   int major = 0, minor = 0;
@@ -47,7 +48,7 @@ Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, i
                              "cudaDeviceGetAttribute");
       !s)
     return s;
-  const NvrtcProgram program = block_kernel_program(model, scalars, 10 * major + minor);
+  const NvrtcProgram program = block_kernel_program(model, scalars, 10 * major + minor, stages);
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
   NvrtcOutput compiled;

@@ -19,10 +19,11 @@ namespace rbdgrad::cuda {
 
 class SpecializedBlockKernel {
  public:
-  /// Builds the kernel of `model` in `scalars` for `device` (current), its shared memory allowed up
-  /// to `max_shared_bytes`. `cache_dir` as compile_with_cache's dir. Errors: unavailable
-  /// (no NVRTC), internal (compiling or loading failed: the message says which).
-  static Status load(const Model& model, KernelScalars scalars, int device, std::size_t max_shared_bytes,
+  /// Builds the kernel of `model` in `scalars` with `stages` (block_stages: a scene's, or
+  /// kPerBatch) for `device` (current), its shared memory allowed up to `max_shared_bytes`.
+  /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
+  /// or loading failed: the message says which).
+  static Status load(const Model& model, KernelScalars scalars, int stages, int device, std::size_t max_shared_bytes,
                      const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
   ~SpecializedBlockKernel();
   SpecializedBlockKernel(const SpecializedBlockKernel&) = delete;

@@ -4,8 +4,10 @@
 // an xclbin or XRT, every instance creation says why it cannot run (RBDGRAD_ERROR_UNAVAILABLE).
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "common/batch_plan.hpp"
 #include "common/batch_view.hpp"
 #include "common/entry_checks.hpp"
 #include "common/error.hpp"
@@ -87,6 +89,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_uint(options, "timeout_ms", 1, std::uint64_t{1} << 31, timeout_ms); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;
+    std::optional<BatchPlan> plan;
+    if (Status s = plan_from_desc(*desc, fpga::kFpgaOutputs, plan); !s) return s;
     if (model.nv > fpga::kDeviceMaxNv)
       return unimplemented("model has " + std::to_string(model.nv) + " joints, more than the " +
                            std::to_string(fpga::kDeviceMaxNv) + " the FPGA kernel takes");
@@ -107,7 +111,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
 #endif
     }
     auto made = std::make_unique<rbdgrad_instance>();
-    if (Status s = fpga::FpgaInstance::create(model, std::move(runner), static_cast<std::size_t>(chunk), made->fpga);
+    if (Status s = fpga::FpgaInstance::create(model, std::move(runner), static_cast<std::size_t>(chunk), made->fpga,
+                                              std::move(plan));
         !s)
       return s;
     made->model = std::move(model);

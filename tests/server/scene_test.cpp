@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cstring>
 
 #include "model_registry.hpp"
@@ -81,6 +83,16 @@ TEST(Scene, GravityOffAndForceLinksOnTheQuadruped) {
   EXPECT_EQ(scene->model.joints[scene->scene->force_bodies[0]].child_link, "rh_lowerleg");
   EXPECT_EQ(scene->model.joints[scene->scene->force_bodies[1]].child_link, "lf_lowerleg");
   EXPECT_EQ(scene->scene->outputs, static_cast<std::uint32_t>(RBDGRAD_OUTPUT_DQDD_DQ));
+  // the backends get the scene's plan with its description (ABI 1.3): the force bodies ascending
+  const rbdgrad_plan* plan = scene->desc.desc().plan;
+  ASSERT_NE(plan, nullptr);
+  EXPECT_EQ(plan->outputs, static_cast<std::uint32_t>(RBDGRAD_OUTPUT_DQDD_DQ));
+  EXPECT_EQ(plan->minv_supplied, 0u);
+  ASSERT_EQ(plan->fext_body_count, 2u);
+  const int first_body = std::min(scene->scene->force_bodies[0], scene->scene->force_bodies[1]);
+  EXPECT_EQ(plan->fext_bodies[0], static_cast<std::uint32_t>(first_body));
+  EXPECT_LT(plan->fext_bodies[0], plan->fext_bodies[1]);
+  EXPECT_EQ(registry.find("hyq")->desc.desc().plan, nullptr) << "a model has no plan";
 }
 
 // Every bad scene is refused with the scene's name and the reason.

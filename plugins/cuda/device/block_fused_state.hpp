@@ -11,11 +11,17 @@
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
 // checks, so that both kernels fail a state for the same reason and agree to rounding. It covers
 // the gradient request of MPC (outputs among qdd, M^-1, d qdd/d q, d qdd/d qd, from tau or qdd,
-// with or without external forces, M^-1 computed here); block_kernel_supports says so, and any
-// other request goes to the one-thread kernel.
+// with or without external forces, M^-1 computed here or the caller's); block_kernel_supports says
+// so, and any other request goes to the one-thread kernel.
+//
+// Stages (issue 8): the d/dq and d/dqd columns and the inversion of M run only when needed. The
+// kernel compiled for any robot decides per batch (its outputs, whether it brings M^-1); a kernel
+// compiled for a scene has them fixed (kStages >= 0, BlockStages), and the code of the others is
+// not in it.
 #pragma once
 
 #include "block_articulated_body.hpp"
+#include "block_stages.hpp"
 #include "fused_state.hpp"
 
 namespace rbdgrad::cuda {
@@ -24,11 +30,14 @@ namespace rbdgrad::cuda {
 inline constexpr int kMaxBlockNv = 64;
 inline constexpr std::uint32_t kBlockOutputs = kOutputQdd | kOutputMinv | kOutputDqddDq | kOutputDqddDqd;
 
+// A caller's M^-1 with the MINV output asked as well (which is then M^-1(q) computed here, plugin_api.h)
+// goes to the one-thread kernel.
 template <class S>
 RBDGRAD_HD bool block_kernel_supports(const BatchPointers<S>& b) {
   return (b.outputs & ~kBlockOutputs) == 0 && (b.outputs & (kOutputMinv | kOutputDqddDq | kOutputDqddDqd)) != 0 &&
-         b.minv == nullptr && b.qd != nullptr && b.u != nullptr;
+         (b.minv == nullptr || (b.outputs & kOutputMinv) == 0) && b.qd != nullptr && b.u != nullptr;
 }
+
 
 // Whether S takes the f32 algorithms (qdd from tau by the articulated-body pass, as
 // fd_derivatives says why) or the f64 ones (qdd through M^-1): a trait, so that a counting scalar
@@ -143,7 +152,8 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // Model: ModelView<S>, or FixedSizeModelView<S, ...> for a kernel compiled for one robot. IO: the
 // batch's scalar type (block_load_inputs); an output that leaves IO's range is flagged as not
 // finite.
-template <class S, class Model, class IO>
+// kStages: block_stages (a scene's fixed stages, which the batch follows) or kPerBatch.
+template <class S, class Model, class IO, int kStages = block_stages::kPerBatch>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
@@ -156,6 +166,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   const IO* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
   const auto by_n = block::divider_for<Model>(n);
+  // compile-time constants in a scene's kernel: the branches below then leave no code behind
+  constexpr bool kFixed = kStages != block_stages::kPerBatch;
+  const bool want_dq = kFixed ? (kStages & block_stages::kDq) != 0 : (b.outputs & kOutputDqddDq) != 0;
+  const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
+  const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
 
   if (g.rank == 0) *w.status = *w.not_finite = 0;
   // the joint transforms in the parent frames
@@ -355,7 +370,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     const S* Si = w.axis + 6 * i;
     w.Ic_S[t] = row_dot(w.Ic, i, c, Si);
     w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
-    w.E[t] = S(2) * row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
+    if (want_dqd) w.E[t] = S(2) * row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
   });
   g.sync();
   // M and d tau/d qd entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry
@@ -367,6 +382,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S mass = dot6(Sa, w.Ic_S + 6 * bb);
       w.M[a * n + bb] = mass;
       w.M[bb * n + a] = mass;
+      if (!want_dqd) return;
       w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
       if (a != bb) {
         Vec6<S> u2;
@@ -392,7 +408,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // pivot order: a check inside each step would sit on every step's critical path.
   S* inverse = w.M;
   S* const pivots = w.B;
-  {
+  if (minv_supplied) {
+    // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
+    const IO* minv = b.minv + state * mat;
+    g.for_each(n * n, [&](int t) { w.Minv[t] = static_cast<S>(minv[t]); });
+    g.sync();
+    inverse = w.Minv;
+  } else {
     S* other = w.Minv;
     for (int pv = n - 1; pv >= 0; --pv) {
       const S* A = inverse;
@@ -418,7 +440,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       inverse = result;
     }
   }
-  if (g.rank == 0 && *w.status == 0) {
+  if (!minv_supplied && g.rank == 0 && *w.status == 0) {
     for (int pv = n - 1; pv >= 0; --pv) {
       const S d = pivots[pv];
       if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
@@ -438,47 +460,50 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   }
 
-  // the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6;
-    S s = S(0);
-    for (int j = 0; j <= i; ++j)
-      if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
-    w.a_qdd[t] = s;
-  });
-  g.sync();
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6, par = m.parent[i];
-    // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the root)
-    S a_par[6];
-    for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
-    S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
-    if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
-    w.beta[t] = beta;
-    w.f_qdd[t] = row_dot(w.I, i, c, w.a_qdd + 6 * i);
-  });
-  g.sync();
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6;
-    S s = w.F[t] + w.f_qdd[t];
-    for (int j = i + 1; j < m.subtree_end[i]; ++j) s += w.f_qdd[6 * j + c];
-    w.F_total[t] = s;
-  });
-  g.sync();
-  // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6;
-    w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) + row_dot(w.Ic, i, c, w.beta + 6 * i) +
-              row_dot(w.Bc, i, c, w.alpha + 6 * i);
-  });
-  g.sync();
-  g.for_each(n * n, [&](int t) {
-    const int a = by_n.quotient(t), bb = t - a * n;
-    if (!m.contains(a, bb)) return;
-    w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
-    if (a != bb) w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
-  });
-  g.sync();
+  // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
+  if (want_dq) {
+    g.for_each(6 * n, [&](int t) {
+      const int i = t / 6, c = t % 6;
+      S s = S(0);
+      for (int j = 0; j <= i; ++j)
+        if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
+      w.a_qdd[t] = s;
+    });
+    g.sync();
+    g.for_each(6 * n, [&](int t) {
+      const int i = t / 6, c = t % 6, par = m.parent[i];
+      // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the root)
+      S a_par[6];
+      for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
+      S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
+      if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
+      w.beta[t] = beta;
+      w.f_qdd[t] = row_dot(w.I, i, c, w.a_qdd + 6 * i);
+    });
+    g.sync();
+    g.for_each(6 * n, [&](int t) {
+      const int i = t / 6, c = t % 6;
+      S s = w.F[t] + w.f_qdd[t];
+      for (int j = i + 1; j < m.subtree_end[i]; ++j) s += w.f_qdd[6 * j + c];
+      w.F_total[t] = s;
+    });
+    g.sync();
+    // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above
+    g.for_each(6 * n, [&](int t) {
+      const int i = t / 6, c = t % 6;
+      w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) + row_dot(w.Ic, i, c, w.beta + 6 * i) +
+                row_dot(w.Bc, i, c, w.alpha + 6 * i);
+    });
+    g.sync();
+    g.for_each(n * n, [&](int t) {
+      const int a = by_n.quotient(t), bb = t - a * n;
+      if (!m.contains(a, bb)) return;
+      w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
+      if (a != bb)
+        w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
+    });
+    g.sync();
+  }
 
   // d qdd/d u = -M^-1 dc'/du and the other outputs, every entry in parallel; each thread writes
   // its own entries (consecutive items, consecutive addresses) and flags what is not finite
@@ -487,7 +512,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
   IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  g.for_each(n + (want_minv ? 3 : 2) * n * n, [&](int t) {
+  // items: qdd, then the d/dq entries, the d/dqd entries and M^-1 of the stages that ran
+  const int dq_items = want_dq ? n * n : 0, derivative_items = dq_items + (want_dqd ? n * n : 0);
+  g.for_each(n + derivative_items + (want_minv ? n * n : 0), [&](int t) {
     S x;
     IO* out;
     std::uint64_t at;
@@ -495,16 +522,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       x = w.qdd[t];
       out = out_qdd;
       at = state * vec + t;
-    } else if (t < n + 2 * n * n) {
-      const int e = t < n + n * n ? t - n : t - n - n * n, i = by_n.quotient(e), j = e - i * n;
-      const S* dtau = t < n + n * n ? w.dtau_dq : w.dtau_dqd;
+    } else if (t < n + derivative_items) {
+      const bool dq = t < n + dq_items;
+      const int e = dq ? t - n : t - n - dq_items, i = by_n.quotient(e), j = e - i * n;
+      const S* dtau = dq ? w.dtau_dq : w.dtau_dqd;
       S s = S(0);
       for (int r = 0; r < n; ++r) s += inverse[i * n + r] * dtau[r * n + j];
       x = -s;
-      out = t < n + n * n ? out_dq : out_dqd;
+      out = dq ? out_dq : out_dqd;
       at = state * mat + e;
     } else {
-      const int e = t - n - 2 * n * n;
+      const int e = t - n - derivative_items;
       x = inverse[e];
       out = out_minv;
       at = state * mat + e;

@@ -24,8 +24,9 @@ RBDGRAD_HD std::size_t block_model_bytes(int nv) {
 __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 #endif
 
-// IO: the batch's scalar type, S or (an f32 batch computed in f64) float.
-template <class S, class Model, class IO = S>
+// IO: the batch's scalar type, S or (an f32 batch computed in f64) float. kStages: a scene's
+// fixed stages (block_stages), or decided per batch.
+template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch>
 __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int nv = FixedNv<Model>::value > 0 ? FixedNv<Model>::value : global_model.nv;
@@ -64,7 +65,7 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
     if (g.rank == 0) g_block_pass_clocks[1] = clock64();
   }
 #endif
-  block_evaluate_state(model, w, batch, active ? k : batch.n - 1, active, g);
+  block_evaluate_state<S, Model, IO, kStages>(model, w, batch, active ? k : batch.n - 1, active, g);
 }
 #endif
 

@@ -32,8 +32,9 @@ void FpgaInstance::Failures::add(std::size_t k, Status s) {
   }
 }
 
-FpgaInstance::FpgaInstance(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states)
-    : model_(model), ws_(model_), runner_(std::move(runner)), chunk_states_(chunk_states) {
+FpgaInstance::FpgaInstance(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states,
+                           std::optional<plugin::BatchPlan> plan)
+    : model_(model), plan_(std::move(plan)), ws_(model_), runner_(std::move(runner)), chunk_states_(chunk_states) {
   const auto n = static_cast<std::size_t>(model.nv);
   for (auto& r : refused_) r.assign(chunk_states, 0);
   q_.assign(n, 0.0);
@@ -44,17 +45,22 @@ FpgaInstance::FpgaInstance(const Model& model, std::unique_ptr<KernelRunner> run
 }
 
 Status FpgaInstance::create(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states,
-                            std::unique_ptr<FpgaInstance>& out) {
+                            std::unique_ptr<FpgaInstance>& out, std::optional<plugin::BatchPlan> plan) {
+  if (plan && !plan->fext_bodies.empty())
+    return unimplemented("the FPGA kernel takes no external forces, and the plan has forces on " +
+                         std::to_string(plan->fext_bodies.size()) + " bodies: use the cpu or cuda backend");
   std::vector<DeviceWord> robot;
   std::string error;
   if (!pack_robot(model, robot, error)) return unimplemented("the FPGA kernel cannot take this model: " + error);
   if (Status s = runner->set_robot(robot); !s) return s;
-  out.reset(new FpgaInstance(model, std::move(runner), chunk_states));
+  out.reset(new FpgaInstance(model, std::move(runner), chunk_states, std::move(plan)));
   return Status::ok();
 }
 
 Status FpgaInstance::compute(const rbdgrad_batch* batch) {
   if (Status s = plugin::validate_batch(batch, model_.nv, RBDGRAD_PRECISION_FIXED_Q16_16, kFpgaOutputs); !s) return s;
+  if (plan_)
+    if (Status s = plugin::check_batch_plan(*batch, *plan_); !s) return s;
   if (batch->fext != nullptr)
     return unimplemented("the FPGA kernel takes no external forces (batch.fext): use the cpu or cuda backend");
   const rbdgrad_batch& b = *batch;

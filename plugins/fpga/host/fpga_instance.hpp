@@ -10,9 +10,11 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "common/batch_plan.hpp"
 #include "host/kernel_runner.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -29,9 +31,11 @@ class FpgaInstance {
  public:
   /// \param model a validated model of at most kDeviceMaxNv joints whose constants fit Q16.16.
   /// \param runner the kernel, with areas for chunk_states states of this model.
-  /// Errors: unimplemented when the model does not fit the kernel; the runner's from set_robot.
+  /// \param plan what every batch computes (a scene's, checked by plan_from_desc), or none.
+  /// Errors: unimplemented when the model does not fit the kernel, or the plan has external
+  /// forces; the runner's from set_robot.
   static Status create(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states,
-                       std::unique_ptr<FpgaInstance>& out);
+                       std::unique_ptr<FpgaInstance>& out, std::optional<plugin::BatchPlan> plan = std::nullopt);
 
   /// Computes a Q16.16 batch of the outputs in kFpgaOutputs (no external forces). Every state is
   /// attempted; a state that leaves the Q16.16 range, at the host (an input or M^-1 that does not
@@ -51,7 +55,8 @@ class FpgaInstance {
     void add(std::size_t k, Status s);
   };
 
-  FpgaInstance(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states);
+  FpgaInstance(const Model& model, std::unique_ptr<KernelRunner> runner, std::size_t chunk_states,
+               std::optional<plugin::BatchPlan> plan);
   // packs states [begin, begin + count) into `slot`, writing the M^-1 output on the way; states
   // the host cannot pack are marked in refused_[slot]
   void pack_chunk(const rbdgrad_batch& batch, int slot, std::size_t begin, std::size_t count, Failures& failures);
@@ -59,6 +64,7 @@ class FpgaInstance {
   void unpack_chunk(const rbdgrad_batch& batch, int slot, std::size_t begin, std::size_t count, Failures& failures);
 
   Model model_;
+  std::optional<plugin::BatchPlan> plan_;  // a scene's: batches must follow it
   WorkspaceTpl<double> ws_;  // M^-1 on the host
   std::unique_ptr<KernelRunner> runner_;
   std::size_t chunk_states_;

@@ -36,7 +36,7 @@ extern "C" {
 #endif
 
 #define RBDGRAD_PLUGIN_API_MAJOR 1
-#define RBDGRAD_PLUGIN_API_MINOR 2
+#define RBDGRAD_PLUGIN_API_MINOR 3
 
 /* Precisions, usable as bit flags in rbdgrad_plugin_info.precisions. */
 typedef enum rbdgrad_precision {
@@ -91,6 +91,20 @@ typedef struct rbdgrad_plugin_info {
   uint32_t max_nv;        /* largest model; 0 = no limit                       */
 } rbdgrad_plugin_info;
 
+/* (1.3) What every batch of an instance computes: a scene's execution plan (issue 8), fixed when
+ * the instance is created so that the backend can build code without the stages it excludes. The
+ * host sends only batches that follow it: outputs a non-empty subset of `outputs`, batch.minv
+ * non-NULL exactly when minv_supplied, batch.fext NULL when fext_body_count is 0 and otherwise
+ * NULL (no forces at all) or zero on every body not listed (a backend never reads those). A
+ * backend refuses another batch with INVALID_ARGUMENT. */
+typedef struct rbdgrad_plan {
+  size_t struct_size;           /* sizeof(rbdgrad_plan)                                          */
+  uint32_t outputs;             /* rbdgrad_output flags: what the batches may ask for            */
+  uint32_t minv_supplied;       /* 1: every batch brings M^-1(q) in batch.minv; 0: none does     */
+  uint32_t fext_body_count;     /* bodies that receive external forces; 0 = no external forces   */
+  const uint32_t* fext_bodies;  /* fext_body_count bodies, ascending, each < nv                   */
+} rbdgrad_plan;
+
 /* A robot model in the core library's internal form (joint axes along each joint frame's z). Arrays
  * have nv entries (times 3 or 9 for vectors and row-major 3x3 matrices). */
 typedef struct rbdgrad_model_desc {
@@ -106,6 +120,9 @@ typedef struct rbdgrad_model_desc {
   const double* inertia_com;     /* 9 per body, about the centre of mass, kg m^2, row-major      */
   const double* link_rotation;   /* 9 per body: URDF link frame to body frame (external forces)  */
   double gravity[3];             /* world frame, m/s^2                                          */
+  /* (1.3) The plan every batch of an instance made from this description follows; NULL = batches
+   * as they come. Read only when struct_size covers it: a 1.2 host's description ends above. */
+  const rbdgrad_plan* plan;
 } rbdgrad_model_desc;
 
 /* Key/value options for an instance (e.g. "threads" = "4"); unknown keys are an error. */

@@ -319,6 +319,61 @@ TEST(CpuPluginCompute, InstancesComputeConcurrently) {
   for (std::uint32_t flag = 1; flag <= RBDGRAD_OUTPUT_M; flag <<= 1) EXPECT_EQ(a.out(flag), c.out(flag));
 }
 
+// A scene's plan (ABI 1.3): forces are read on its bodies only, and batches outside it are refused.
+TEST(CpuPluginPlan, ReadsForcesOnThePlansBodiesOnly) {
+  constexpr std::uint32_t kGradient = RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
+  plugin::ModelDesc with_plan(load_embedded("iiwa14"));
+  with_plan.set_plan(kGradient, false, {1, 4});
+  std::optional<PluginError> error;
+  InstancePtr planned = create(api(), with_plan.desc(), {{"threads", "2"}}, &error);
+  ASSERT_TRUE(planned) << error->message;
+  InstancePtr plain = make_instance();
+
+  BatchArrays<double> everywhere = random_batch(5, 21);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-5, 5);
+  for (double& f : everywhere.fext) f = u(rng);
+  BatchArrays<double> on_bodies = everywhere;  // the same forces on bodies 1 and 4, none elsewhere
+  for (std::size_t k = 0; k < 5; ++k)
+    for (std::size_t body = 0; body < 7; ++body)
+      if (body != 1 && body != 4)
+        for (std::size_t c = 0; c < 6; ++c) on_bodies.fext[(k * 7 + body) * 6 + c] = 0;
+
+  rbdgrad_batch b = everywhere.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, kGradient, false, true);
+  ASSERT_FALSE(take(api(), api()->compute(planned.get(), &b)));
+  BatchArrays<double> reference = on_bodies, unplanned = everywhere;
+  b = reference.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, kGradient, false, true);
+  ASSERT_FALSE(take(api(), api()->compute(plain.get(), &b)));
+  b = unplanned.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, kGradient, false, true);
+  ASSERT_FALSE(take(api(), api()->compute(plain.get(), &b)));
+  for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD})
+    EXPECT_EQ(everywhere.out(flag), reference.out(flag)) << plugin::output_name(flag);
+  // (d qdd/d qd does not depend on the forces)
+  for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ})
+    EXPECT_NE(unplanned.out(flag), reference.out(flag)) << plugin::output_name(flag) << ": the other forces matter";
+
+  // outside the plan: another output, a caller's M^-1
+  b = everywhere.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, kGradient | RBDGRAD_OUTPUT_MINV, false, true);
+  auto e = take(api(), api()->compute(planned.get(), &b));
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT);
+  EXPECT_THAT(e->message, HasSubstr("outside the instance's plan"));
+  b = everywhere.batch(RBDGRAD_PRECISION_F64, RBDGRAD_INPUT_TAU, kGradient, true, true);
+  e = take(api(), api()->compute(planned.get(), &b));
+  ASSERT_TRUE(e);
+  EXPECT_THAT(e->message, HasSubstr("batch.minv is set"));
+}
+
+TEST(CpuPluginPlan, ABadPlanIsRefusedAtCreation) {
+  plugin::ModelDesc desc(load_embedded("iiwa14"));
+  desc.set_plan(RBDGRAD_OUTPUT_DQDD_DQ, false, {3, 9});
+  std::optional<PluginError> error;
+  EXPECT_FALSE(create(api(), desc.desc(), {}, &error));
+  ASSERT_TRUE(error);
+  EXPECT_EQ(error->code, RBDGRAD_ERROR_INVALID_ARGUMENT);
+  EXPECT_THAT(error->message, HasSubstr("model_desc.plan.fext_bodies[1] is 9"));
+}
+
 TEST(CpuPluginErrors, NullErrorIsNoError) {
   EXPECT_EQ(static_cast<int>(api()->error_code(nullptr)), 0);
   EXPECT_STREQ(api()->error_message(nullptr), "");

@@ -24,7 +24,7 @@ constexpr std::size_t kStates = 40;
 
 // Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
 // as the kernel compiled for it at load does.
-template <class S, class Model = cuda::ModelView<S>>
+template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch>
 std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
                                              bool tau_input, bool reverse) {
   const cuda::FlatModel<S> flat(model);
@@ -39,7 +39,7 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   g.reverse = reverse;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
-    cuda::block_evaluate_state(m, w, b, k, true, g);
+    cuda::block_evaluate_state<S, Model, S, kStages>(m, w, b, k, true, g);
   }
   return status;
 }
@@ -127,10 +127,81 @@ TEST(BlockStateOnHost, FixedDividerIsExact) {
 TEST(BlockStateOnHost, TakesOnlyTheGradientRequests) {
   const Model model = robot_model("iiwa14");
   CudaBatch<double> a(random_inputs(model, 1, 5), model.nv, true);
-  const OutputCase supplied{"d qdd with supplied M^-1", kOutputDqdd, false, true};
+  // with a caller's M^-1, the MINV output is M^-1(q) computed (plugin_api.h): the one-thread kernel's
+  const OutputCase supplied{"M^-1 with supplied M^-1", kOutputDqdd | RBDGRAD_OUTPUT_MINV, false, true};
   const OutputCase tau{"tau and d qdd", kOutputDqdd | RBDGRAD_OUTPUT_TAU, false, false};
   const OutputCase qdd{"qdd alone", RBDGRAD_OUTPUT_QDD, false, false};
   for (const OutputCase& c : {supplied, tau, qdd}) EXPECT_FALSE(cuda::block_kernel_supports(a.pointers(c, true))) << c.name;
+}
+
+// A scene's kernel (issue 8) has its stages fixed at compile time (block_stages): the same code as
+// the kernel that decides per batch, less what the stages exclude, so the same bits for what it
+// computes.
+template <class S, int kStages>
+void check_fixed_stages(const std::string& robot, const OutputCase& c) {
+  const Model model = robot_model(robot);
+  const std::vector<StateInputs> states = random_inputs(model, 6, 13);
+  for (const bool tau_input : {true, false}) {
+    CudaBatch<S> per_batch(states, model.nv, tau_input), fixed(states, model.nv, tau_input);
+    per_batch.poison();
+    fixed.poison();
+    const auto s1 = run_block_on_host<S>(model, per_batch, c, tau_input, false);
+    const auto s2 = run_block_on_host<S, cuda::ModelView<S>, kStages>(model, fixed, c, tau_input, true);
+    const std::string where = robot + " " + scalar_name<S>() + " stages " + std::to_string(kStages) + " " + c.name +
+                              (tau_input ? ", tau input" : ", qdd input");
+    ASSERT_EQ(s1, s2) << where;
+    for (std::size_t k = 0; k < states.size(); ++k) ASSERT_EQ(s1[k], 0u) << where << " state " << k;
+    for (int f = 0; f < 8; ++f)
+      ASSERT_EQ(0, std::memcmp(per_batch.out[f].data(), fixed.out[f].data(), per_batch.out[f].size() * sizeof(S)))
+          << where << ": output " << Comparison::plugin_output_name(f) << " differs with the stages fixed";
+    const Comparison cmp = compare_with_core(model, fixed, c, tau_input);
+    ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
+    EXPECT_TRUE(cmp.within_bounds<S>()) << where << ": " << cmp.summary();
+  }
+}
+
+TEST(BlockStateOnHost, FixedStagesGiveTheSameBits) {
+  namespace st = cuda::block_stages;
+  const OutputCase dq{"d qdd/d q", RBDGRAD_OUTPUT_DQDD_DQ, false, false};
+  const OutputCase dqd_forces{"qdd and d qdd/d qd, external forces", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQD, true,
+                              false};
+  const OutputCase both_supplied{"d qdd with supplied M^-1", kOutputDqdd, false, true};
+  const OutputCase dq_supplied{"d qdd/d q with supplied M^-1, external forces", RBDGRAD_OUTPUT_DQDD_DQ, true, true};
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    check_fixed_stages<double, st::kDq>(robot, dq);
+    check_fixed_stages<float, st::kDq>(robot, dq);
+    check_fixed_stages<double, st::kDqd>(robot, dqd_forces);
+    check_fixed_stages<float, st::kDqd>(robot, dqd_forces);
+    check_fixed_stages<double, st::kDq | st::kDqd | st::kMinvSupplied>(robot, both_supplied);
+    check_fixed_stages<double, st::kDq | st::kMinvSupplied>(robot, dq_supplied);
+    check_fixed_stages<float, st::kDq | st::kMinvSupplied>(robot, dq_supplied);
+  }
+}
+
+// A stage a batch does not ask for is not computed: its working arrays keep their poison.
+TEST(BlockStateOnHost, SkippedStagesLeaveTheirArraysUntouched) {
+  const Model model = robot_model("iiwa14");
+  const cuda::FlatModel<double> flat(model);
+  const cuda::ModelView<double> m(flat.host_view());
+  CudaBatch<double> a(random_inputs(model, 1, 3), model.nv, true);
+  std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(model.nv, false), poison<double>());
+  const cuda::BlockWorkspace<double> w(shared.data(), model.nv, false);
+  const OutputCase dqd{"d qdd/d qd", RBDGRAD_OUTPUT_DQDD_DQD, false, false};
+  cuda::BatchPointers<double> b = a.pointers(dqd, true);
+  std::uint32_t status = 1;
+  b.status = &status;
+  cuda::ThreadGroup g;
+  cuda::block_load_inputs(m.nv, w, b, 0, g);
+  cuda::block_evaluate_state(m, w, b, 0, true, g);
+  ASSERT_EQ(status, 0u);
+  const double marker = poison<double>();
+  const auto poisoned = [&](const double* x, int count) {
+    for (int e = 0; e < count; ++e)
+      if (std::memcmp(&x[e], &marker, sizeof(double)) != 0) return false;
+    return true;
+  };
+  EXPECT_TRUE(poisoned(w.Dq, 6 * model.nv)) << "the d/dq pass ran for a batch without d qdd/d q";
+  EXPECT_TRUE(poisoned(w.beta, 6 * model.nv)) << "beta was computed for a batch without d qdd/d q";
 }
 
 class BlockStateOnHost : public ::testing::TestWithParam<const char*> {};

@@ -36,6 +36,8 @@ inline constexpr OutputCase kBlockCases[] = {
     {"d qdd/d q alone, external forces", RBDGRAD_OUTPUT_DQDD_DQ, true, false},
     {"d qdd/d qd and qdd", RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD, false, false},
     {"qdd and M^-1", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV, false, false},
+    {"d qdd with supplied M^-1", kOutputDqdd, false, true},
+    {"qdd and d qdd/d qd with supplied M^-1, external forces", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQD, true, true},
 };
 
 // One state's inputs in double.

@@ -68,6 +68,13 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   // an f32 batch computed in f64: the batch's scalars as the third argument
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90).name_expression,
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float>");
+  // a scene's stages (block_stages) follow the batch's scalars
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kDq).name_expression,
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, double, 1>");
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6).name_expression,
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6>");
+  EXPECT_THAT(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).source,
+              HasSubstr("stages fixed: d/dqd, M^-1 supplied"));
   bool entry = false;
   for (const cuda::EmbeddedHeader& h : f64.headers) entry |= std::string(h.name) == "block_kernel_entry.hpp";
   EXPECT_TRUE(entry) << "the entry header is not embedded";
@@ -94,6 +101,26 @@ TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
       std::printf("%s %s: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(),
                   cuda::kernel_scalars_name(scalars),
                   out.cubin.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+  }
+}
+
+// A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.
+TEST(KernelSource, SceneStagesCompileToLessCode) {
+  SKIP_WITHOUT_NVRTC();
+  namespace st = cuda::block_stages;
+  const Model model = load_embedded("iiwa14");
+  std::size_t per_batch_bytes = 0;
+  for (const int stages : {st::kPerBatch, st::kDq | st::kDqd, st::kDq, st::kDqd | st::kMinvSupplied}) {
+    for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF32}) {
+      cuda::NvrtcOutput out;
+      const Status s = cuda::nvrtc_compile(cuda::block_kernel_program(model, scalars, 90, stages), out);
+      ASSERT_TRUE(s.is_ok()) << cuda::block_stages_text(stages) << ": " << s.message();
+      if (scalars != cuda::KernelScalars::kF64) continue;
+      std::printf("iiwa14 f64, %s: cubin %zu bytes\n", cuda::block_stages_text(stages).c_str(), out.cubin.size());
+      if (stages == st::kPerBatch) per_batch_bytes = out.cubin.size();
+      else if (stages != (st::kDq | st::kDqd))
+        EXPECT_LT(out.cubin.size(), per_batch_bytes) << cuda::block_stages_text(stages);
     }
   }
 }
