@@ -321,6 +321,57 @@ TEST(CudaLargeBatch, UnevenChunksWithEveryInputAndOutput) {
 // The most chunks the pipeline takes, each small and the last one shorter, with every input and
 // output: each chunk's kernel waits for its own upload only and each download for its own
 // kernel, so a wrong order shows as outputs of another chunk or the poison left in place.
+// A scene's instance (issue 8, ABI 1.3): its kernel is compiled with the plan's stages fixed, says
+// so, matches the core on the plan's outputs, and refuses a batch outside the plan.
+TEST(CudaScenePlan, FixedStageKernelsMatchTheCore) {
+  SKIP_WITHOUT_GPU();
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    const Model model = robot_model(robot);
+    const std::vector<StateInputs> states = random_inputs(model, 33, 17);
+    struct Plan {
+      OutputCase batch;
+      bool minv;
+      bool forces;
+      const char* stages;
+    };
+    const Plan plans[] = {
+        {{"d qdd/d q", RBDGRAD_OUTPUT_DQDD_DQ, false, false}, false, false, "stages fixed: d/dq, M^-1 computed"},
+        {{"qdd and d qdd/d qd, forces", RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQD, true, false}, false, true,
+         "stages fixed: d/dqd, M^-1 computed"},
+        {{"d qdd, M^-1 supplied, forces", kOutputDqdd, true, true}, true, true,
+         "stages fixed: d/dq d/dqd, M^-1 supplied"},
+    };
+    for (const Plan& p : plans) {
+      plugin::ModelDesc desc(model);
+      std::vector<std::uint32_t> bodies;
+      if (p.forces)
+        for (int i = 0; i < model.nv; ++i) bodies.push_back(static_cast<std::uint32_t>(i));
+      desc.set_plan(p.batch.outputs, p.minv, bodies);
+      std::optional<PluginError> error;
+      InstancePtr instance = create(api(), desc.desc(), {}, &error);
+      ASSERT_TRUE(instance) << error->message;
+      rbdgrad_instance_info info{};
+      info.struct_size = sizeof(info);
+      ASSERT_FALSE(take(api(), api()->describe_instance(instance.get(), &info)));
+      const std::string detail = info.detail;
+      std::printf("%s %s: %s\n", robot, p.batch.name, detail.c_str());
+      if (detail.rfind("kernel compiled for this robot", 0) == 0)
+        EXPECT_NE(detail.find(p.stages), std::string::npos) << detail;
+      for (const bool tau_input : {true, false}) {
+        const std::string where = std::string(robot) + " " + p.batch.name + (tau_input ? ", tau" : ", qdd");
+        run_and_compare<double>(instance.get(), model, states, p.batch, tau_input, where + " f64");
+        run_and_compare<float>(instance.get(), model, states, p.batch, tau_input, where + " f32");
+      }
+      CudaBatch<double> a(states, model.nv, true);
+      const OutputCase outside{"M", RBDGRAD_OUTPUT_M, false, p.minv};
+      const rbdgrad_batch b = a.batch(RBDGRAD_PRECISION_F64, outside, true);
+      const std::optional<PluginError> e = take(api(), api()->compute(instance.get(), &b));
+      ASSERT_TRUE(e);
+      EXPECT_NE(e->message.find("outside the instance's plan"), std::string::npos) << e->message;
+    }
+  }
+}
+
 TEST(CudaLargeBatch, EightSmallChunks) {
   SKIP_WITHOUT_GPU();
   const Model model = robot_model("iiwa14");
