@@ -16,6 +16,8 @@ packages=(
   libbenchmark-dev               # microbenchmarks (bench)
   libxrt-dev                     # FPGA backend: XRT host API (plugins/fpga)
   python3                        # CLI tests compare result files (stdlib only)
+  python3-yaml                   # tests/deploy: the deployment files' cross-checks read YAML
+  openssl                        # the TLS tests make their certificates at test time
   python3-matplotlib             # the accuracy benchmark's plots (bench/accuracy/plot_accuracy.py)
 )
 

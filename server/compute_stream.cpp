@@ -19,6 +19,7 @@ class ComputeStreamReactor::Call final : public ComputeCall {
   grpc::ByteBuffer bytes;  // the serialized response, written from here
   bool done = false;       // run() has finished, or the call was refused (under the stream's mutex)
   bool admitted = false;   // counts against max_concurrent_requests until it leaves the stream
+  AccessControl::Ticket ticket;  // its client's place among client_max_concurrent, as long as it lives
   std::optional<grpc::Status> refused;  // refused before running: the stream ends here, in order
 
  private:
@@ -71,8 +72,9 @@ void StreamRegistry::shutdown() {
 
 // --- ComputeStreamReactor ---
 
-ComputeStreamReactor::ComputeStreamReactor(ComputeContext& context, StreamRegistry& registry)
-    : context_(context), registry_(registry) {
+ComputeStreamReactor::ComputeStreamReactor(ComputeContext& context, StreamRegistry& registry, AccessControl* access,
+                                           std::shared_ptr<AccessControl::Client> client)
+    : context_(context), registry_(registry), access_(access), client_(std::move(client)) {
   const bool open = registry_.add(this);
   Actions a;
   {
@@ -171,9 +173,17 @@ void ComputeStreamReactor::OnReadDone(bool ok) {
 
   // read_pending_ stays set while read_buffer_ is parsed: no other thread starts a read into it
   auto call = std::make_unique<Call>(*this, accepted);
-  const ComputeContext::Admission admission = context_.admit();
+  // the client's own limits first: one client at its limit must not take the others' places
+  grpc::Status limited = grpc::Status::OK;
+  if (access_ != nullptr)
+    limited = access_->admit(client_, &call->ticket, "stream message " + std::to_string(index) + ": ");
+  const ComputeContext::Admission admission =
+      limited.ok() ? context_.admit() : ComputeContext::Admission::kTooManyInFlight;
   call->admitted = admission == ComputeContext::Admission::kAdmitted;
-  if (admission == ComputeContext::Admission::kTooManyInFlight) {
+  if (!limited.ok()) {
+    call->refused = std::move(limited);
+  } else if (admission == ComputeContext::Admission::kTooManyInFlight) {
+    if (Metrics* m = context_.metrics()) m->record_rejection("max_concurrent_requests");
     call->refused = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                                  "stream message " + std::to_string(index) +
                                      ": too many requests in flight (limit max_concurrent_requests = " +

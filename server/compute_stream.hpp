@@ -17,6 +17,7 @@
 #include <grpcpp/support/byte_buffer.h>
 #include <grpcpp/support/server_callback.h>
 
+#include "access_control.hpp"
 #include "compute_call.hpp"
 
 namespace rbdgrad::server {
@@ -49,8 +50,10 @@ class ComputeStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuff
   // requests of one stream read ahead and computing at once
   static constexpr std::size_t kMaxPipelined = 4;
 
-  /// Starts reading. Deletes itself when gRPC is done with the stream (OnDone).
-  ComputeStreamReactor(ComputeContext& context, StreamRegistry& registry);
+  /// Starts reading. Deletes itself when gRPC is done with the stream (OnDone). `access` (may be
+  /// null) holds each message to the limits of `client` (AccessControl::identify's).
+  ComputeStreamReactor(ComputeContext& context, StreamRegistry& registry, AccessControl* access = nullptr,
+                       std::shared_ptr<AccessControl::Client> client = nullptr);
 
   void OnReadDone(bool ok) override;
   void OnWriteDone(bool ok) override;
@@ -78,6 +81,8 @@ class ComputeStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuff
 
   ComputeContext& context_;
   StreamRegistry& registry_;
+  AccessControl* const access_;
+  const std::shared_ptr<AccessControl::Client> client_;
   grpc::ByteBuffer read_buffer_;  // the message being read; touched only while no read is pending
 
   std::mutex mutex_;

@@ -3,6 +3,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+
+#include <cctype>
 #include <charconv>
 #include <cstdlib>
 #include <fstream>
@@ -93,9 +97,40 @@ class Parser {
     return Status::ok();
   }
 
+  // only "true" and "false": YAML 1.1's yes/no/on/off read too easily as something else
+  Status get_bool(const std::string& key, const YAML::Node& node, bool& out) const {
+    if (!node.IsScalar() || (node.Scalar() != "true" && node.Scalar() != "false"))
+      return error_at(key, node, "expected true or false");
+    out = node.Scalar() == "true";
+    return Status::ok();
+  }
+
+  // `section: {key: "string", ...}` for the sections made only of strings (tls, auth)
+  Status parse_strings(const std::string& section, const YAML::Node& node,
+                       std::initializer_list<std::pair<std::string_view, std::string*>> fields) const {
+    if (node.IsNull()) return Status::ok();
+    if (Status s = require_map(section, node); !s) return s;
+    for (const auto& kv : node) {
+      const std::string key = kv.first.Scalar();
+      std::string* dst = nullptr;
+      for (const auto& [name, field] : fields) dst = key == name ? field : dst;
+      if (dst == nullptr) {
+        std::ostringstream os;
+        os << name_ << ": unknown key '" << section << "." << key << "'";
+        if (!kv.first.Mark().is_null()) os << " (line " << kv.first.Mark().line + 1 << ")";
+        return invalid_argument(os.str());
+      }
+      if (Status s = get_string(section + "." + key, kv.second, *dst); !s) return s;
+    }
+    return Status::ok();
+  }
+
   Status parse_listen(const YAML::Node& node, ListenConfig& out) const {
     if (Status s = require_map("listen", node); !s) return s;
-    if (Status s = check_keys("listen", node, {"tcp", "unix_socket"}); !s) return s;
+    if (Status s = check_keys("listen", node, {"tcp", "unix_socket", "insecure"}); !s) return s;
+    if (node["insecure"]) {
+      if (Status s = get_bool("listen.insecure", node["insecure"], out.insecure); !s) return s;
+    }
     if (node["tcp"]) {
       if (Status s = get_string("listen.tcp", node["tcp"], out.tcp); !s) return s;
     }
@@ -246,8 +281,9 @@ class Parser {
   Status parse_limits(const YAML::Node& node, LimitsConfig& out) const {
     if (Status s = require_map("limits", node); !s) return s;
     if (Status s = check_keys("limits", node,
-                              {"max_states_per_request", "max_message_bytes",
-                               "max_concurrent_requests", "max_queue_delay_us"});
+                              {"max_states_per_request", "max_message_bytes", "max_concurrent_requests",
+                               "max_queue_delay_us", "client_requests_per_second", "client_burst",
+                               "client_max_concurrent"});
         !s) {
       return s;
     }
@@ -258,15 +294,25 @@ class Parser {
     };
     const Field fields[] = {
         {"max_states_per_request", 1, kMaxInt32, &out.max_states_per_request},
-        {"max_message_bytes", 1, kMaxInt32, &out.max_message_bytes},
+        {"max_message_bytes", 0, kMaxInt32, &out.max_message_bytes},
         {"max_concurrent_requests", 1, kMaxInt32, &out.max_concurrent_requests},
         {"max_queue_delay_us", 0, 10'000'000, &out.max_queue_delay_us},
+        {"client_burst", 0, kMaxInt32, &out.client_burst},
+        {"client_max_concurrent", 0, kMaxInt32, &out.client_max_concurrent},
     };
     for (const Field& f : fields) {
       if (!node[f.name]) continue;
       if (Status s = get_int(std::string("limits.") + f.name, node[f.name], f.lo, f.hi, *f.dst); !s) {
         return s;
       }
+    }
+    if (const YAML::Node rate = node["client_requests_per_second"]) {
+      const std::string key = "limits.client_requests_per_second";
+      double v = 0;
+      if (Status s = get_double(key, rate, v); !s) return s;
+      // written so that NaN fails too
+      if (!(v >= 0 && v <= 1e9)) return error_at(key, rate, "value " + rate.Scalar() + " is outside [0, 1e9]");
+      out.client_requests_per_second = v;
     }
     return Status::ok();
   }
@@ -330,13 +376,25 @@ class Parser {
     if (root.IsNull()) return Status::ok();
     if (!root.IsMap()) return invalid_argument(name_ + ": the top level must be a mapping");
     if (Status s = check_keys("", root,
-                              {"listen", "models", "scenes", "plugins", "workers", "inline_max_states",
-                               "fixed_point_fallback", "limits", "scheduler", "metrics", "log_level"});
+                              {"listen", "tls", "auth", "models", "scenes", "plugins", "workers",
+                               "inline_max_states", "fixed_point_fallback", "limits", "scheduler", "metrics",
+                               "log_level"});
         !s) {
       return s;
     }
     if (root["listen"]) {
       if (Status s = parse_listen(root["listen"], out.listen); !s) return s;
+    }
+    if (root["tls"]) {
+      if (Status s = parse_strings("tls", root["tls"],
+                                   {{"cert_file", &out.tls.cert_file},
+                                    {"key_file", &out.tls.key_file},
+                                    {"client_ca_file", &out.tls.client_ca_file}});
+          !s)
+        return s;
+    }
+    if (root["auth"]) {
+      if (Status s = parse_strings("auth", root["auth"], {{"tokens_file", &out.auth.tokens_file}}); !s) return s;
     }
     if (root["models"]) {
       if (Status s = parse_named_list("models", "model", root["models"], &Parser::parse_model, out.models); !s) return s;
@@ -488,10 +546,50 @@ Status apply_flag_overrides(const std::vector<std::string>& args, ServerConfig& 
   return Status::ok();
 }
 
+bool is_loopback_address(const std::string& tcp) {
+  std::string host;
+  if (!tcp.empty() && tcp.front() == '[') {
+    const auto close = tcp.find(']');
+    if (close == std::string::npos) return false;
+    host = tcp.substr(1, close - 1);
+  } else {
+    const auto colon = tcp.rfind(':');
+    host = colon == std::string::npos ? tcp : tcp.substr(0, colon);
+  }
+  std::string lower;
+  for (char c : host) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower == "localhost") return true;
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, host.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6);
+  // anything else, the empty host (every interface) and other names included, may be reachable
+  return false;
+}
+
+Status check_security(const ServerConfig& cfg) {
+  const TlsConfig& tls = cfg.tls;
+  if (tls.cert_file.empty() != tls.key_file.empty())
+    return invalid_argument("tls.cert_file and tls.key_file go together: set both for TLS, or neither");
+  if (!tls.client_ca_file.empty() && !tls.enabled())
+    return invalid_argument("tls.client_ca_file (mutual TLS) needs TLS: set tls.cert_file and tls.key_file too");
+  if (!cfg.listen.tcp.empty() && !tls.enabled() && !cfg.listen.insecure && !is_loopback_address(cfg.listen.tcp))
+    return invalid_argument("listen.tcp '" + cfg.listen.tcp +
+                            "' is not a loopback address and TLS is off: set tls.cert_file and tls.key_file, or "
+                            "listen.insecure: true to serve it in plaintext anyway");
+  return Status::ok();
+}
+
 std::string describe(const ServerConfig& cfg) {
   std::ostringstream os;
   os << "listen: tcp " << (cfg.listen.tcp.empty() ? "(off)" : cfg.listen.tcp) << ", unix "
-     << (cfg.listen.unix_socket.empty() ? "(off)" : cfg.listen.unix_socket) << "\n";
+     << (cfg.listen.unix_socket.empty() ? "(off)" : cfg.listen.unix_socket)
+     << (cfg.listen.insecure ? ", insecure: true" : "") << "\n";
+  os << "tls: ";
+  if (!cfg.tls.enabled()) os << "off";
+  else os << "cert " << cfg.tls.cert_file << ", key " << cfg.tls.key_file;
+  if (!cfg.tls.client_ca_file.empty()) os << ", client CA " << cfg.tls.client_ca_file << " (mutual TLS)";
+  os << "\nauth: " << (cfg.auth.tokens_file.empty() ? "off" : "tokens from " + cfg.auth.tokens_file) << "\n";
   os << "models (" << cfg.models.size() << "):\n";
   for (const ModelConfig& m : cfg.models) {
     os << "  " << m.name << ": " << (m.urdf.empty() ? "embedded " + m.embedded : "urdf " + m.urdf);
@@ -525,9 +623,12 @@ std::string describe(const ServerConfig& cfg) {
   os << "inline_max_states: " << cfg.inline_max_states << "\n";
   os << "fixed_point_fallback: " << (cfg.fixed_point_fallback.empty() ? "none" : cfg.fixed_point_fallback) << "\n";
   os << "limits: max_states_per_request " << cfg.limits.max_states_per_request
-     << ", max_message_bytes " << cfg.limits.max_message_bytes << ", max_concurrent_requests "
-     << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "
-     << cfg.limits.max_queue_delay_us << "\n";
+     << ", max_message_bytes "
+     << (cfg.limits.max_message_bytes == 0 ? std::string("derived") : std::to_string(cfg.limits.max_message_bytes))
+     << ", max_concurrent_requests " << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "
+     << cfg.limits.max_queue_delay_us << ", per client: " << cfg.limits.client_requests_per_second
+     << " requests/s (0 = unlimited), burst " << cfg.limits.client_burst << ", max_concurrent "
+     << cfg.limits.client_max_concurrent << "\n";
   os << "scheduler: policy " << cfg.scheduler.policy;
   if (cfg.scheduler.policy == "threshold")
     os << " (small_n " << cfg.scheduler.small_n << ", large_n " << cfg.scheduler.large_n << "; -1 = from calibration)";

@@ -20,8 +20,36 @@ struct ListenConfig {
   std::string tcp = "127.0.0.1:50051";
   // Unix domain socket path. Default "/tmp/rbdgradd.sock". Empty = no Unix socket.
   std::string unix_socket = "/tmp/rbdgradd.sock";
+  // A TCP address that is not loopback (127.0.0.0/8, ::1, localhost) without TLS is refused at
+  // start-up (check_security) unless this is true. Default false.
+  bool insecure = false;
 
   bool operator==(const ListenConfig&) const = default;
+};
+
+// TLS on the TCP listener (the Unix socket stays plaintext: file permissions guard it). The files
+// are read at start-up; each error names the file.
+struct TlsConfig {
+  // PEM server certificate chain and its private key: both set = TLS, both empty = plaintext.
+  std::string cert_file;
+  std::string key_file;
+  // PEM CA certificate(s): set = mutual TLS, every client must present a certificate signed by one
+  // of them. Needs cert_file and key_file. Default "" = clients are not asked for a certificate.
+  std::string client_ca_file;
+
+  bool enabled() const noexcept { return !cert_file.empty() && !key_file.empty(); }
+  bool operator==(const TlsConfig&) const = default;
+};
+
+// Token authentication.
+struct AuthConfig {
+  // A file of "NAME TOKEN" lines ('#' starts a comment line), read at start-up. Set = every call
+  // but the gRPC health service needs the metadata "authorization: Bearer TOKEN" (else
+  // UNAUTHENTICATED); the NAME stands for the client in logs and per-client limits. Default "" =
+  // no authentication.
+  std::string tokens_file;
+
+  bool operator==(const AuthConfig&) const = default;
 };
 
 // One robot model served by the daemon. Exactly one of `urdf` / `embedded` is non-empty.
@@ -87,14 +115,26 @@ struct PluginConfig {
 struct LimitsConfig {
   // Most states (batch columns) one request may carry. Default 65536. Range [1, 2^31-1].
   int64_t max_states_per_request = 65536;
-  // Largest gRPC message accepted or sent, in bytes. Default 256 MiB. Range [1, 2^31-1].
-  int64_t max_message_bytes = int64_t{256} << 20;
+  // Largest gRPC message accepted or sent, in bytes. Default 0 = derived at start-up from
+  // max_states_per_request and the largest model served (the largest request and response any
+  // allowed request makes, plus a margin; see server/message_size.hpp). Range [0, 2^31-1].
+  int64_t max_message_bytes = 0;
   // Compute requests in flight at once (unary and streamed); more are rejected
   // RESOURCE_EXHAUSTED. Default 256. Range [1, 2^31-1].
   int64_t max_concurrent_requests = 256;
   // Dynamic batching: how long a small request may wait for others to share its backend call,
   // in microseconds (server/coalescer.hpp). Default 0 = no batching. Range [0, 10^7].
   int64_t max_queue_delay_us = 0;
+  // Per client (the token's NAME with auth, else the peer's address without the port): requests
+  // per second, the refill rate of a token bucket that every Dynamics call and every stream
+  // message takes one token from. Default 0 = unlimited. Range [0, 10^9].
+  double client_requests_per_second = 0;
+  // The bucket's size (the burst a client may send at once). Default 0 = max(1, rate).
+  // Range [0, 2^31-1].
+  int64_t client_burst = 0;
+  // Compute requests in flight per client (unary and streamed). Default 0 = unlimited.
+  // Range [0, 2^31-1].
+  int64_t client_max_concurrent = 0;
 
   bool operator==(const LimitsConfig&) const = default;
 };
@@ -139,6 +179,10 @@ bool parse_log_level(const std::string& name, LogLevel& out);
 struct ServerConfig {
   // Addresses to listen on. Default: TCP 127.0.0.1:50051 and /tmp/rbdgradd.sock.
   ListenConfig listen;
+  // TLS on the TCP listener. Default off.
+  TlsConfig tls;
+  // Token authentication. Default off.
+  AuthConfig auth;
   // Models to load at start-up. Default: one model "iiwa14" from the embedded iiwa14.
   std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt}};
   // Scenes made from those models (SceneConfig). Default none.
@@ -185,6 +229,14 @@ Status parse_config(const std::string& yaml_text, const std::string& name_for_me
 // --listen <host:port>, --unix-socket <path>, --workers <n>, --log-level <lvl>, --max-states <n>.
 // Both "--flag value" and "--flag=value" are accepted. Unknown flags are invalid_argument.
 Status apply_flag_overrides(const std::vector<std::string>& args, ServerConfig& cfg);
+
+// true when `tcp` ("host:port", "[v6]:port") names a loopback host: 127.0.0.0/8, ::1 or localhost.
+bool is_loopback_address(const std::string& tcp);
+
+// The rules that need the whole configuration (flags applied), checked at start-up: tls.cert_file
+// and tls.key_file go together, tls.client_ca_file needs them, and a listen.tcp that is not
+// loopback needs TLS or listen.insecure: true. invalid_argument saying which rule and how to fix it.
+Status check_security(const ServerConfig& cfg);
 
 // Multi-line human summary for the start-up log.
 std::string describe(const ServerConfig& cfg);

@@ -7,12 +7,17 @@
 #include <grpcpp/server_builder.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cstring>
+#include <fstream>
 #include <sstream>
 #include <thread>
 #include <utility>
 
 #include <spdlog/spdlog.h>
 
+#include "message_size.hpp"
 #include "unix_socket.hpp"
 
 #ifndef RBDGRAD_VERSION
@@ -53,6 +58,19 @@ std::string with_port(const std::string& address, int port) {
   return (colon == std::string::npos ? address : address.substr(0, colon)) + ":" + std::to_string(port);
 }
 
+// A PEM file of config.tls, whole; errors name the key and the file.
+Status read_pem(const char* key, const std::string& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return not_found(std::string(key) + ": cannot read '" + path + "': " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  out = text.str();
+  // gRPC would only say "handshaker factory creation failed" much later
+  if (out.find("-----BEGIN ") == std::string::npos)
+    return invalid_argument(std::string(key) + ": '" + path + "' holds no PEM block (-----BEGIN ...)");
+  return Status::ok();
+}
+
 }  // namespace
 
 void log_lines(const std::string& text) {
@@ -63,6 +81,24 @@ void log_lines(const std::string& text) {
 Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   std::unique_ptr<Daemon> d(new Daemon(std::move(options)));
   const ServerConfig& cfg = d->options_.config;
+
+  // before anything slow: a daemon that must not start should say so at once
+  if (Status s = check_security(cfg); !s) return s;
+  if (cfg.tls.enabled()) {
+    if (Status s = read_pem("tls.cert_file", cfg.tls.cert_file, d->tls_cert_pem_); !s) return s;
+    if (Status s = read_pem("tls.key_file", cfg.tls.key_file, d->tls_key_pem_); !s) return s;
+    if (!cfg.tls.client_ca_file.empty()) {
+      if (Status s = read_pem("tls.client_ca_file", cfg.tls.client_ca_file, d->tls_client_ca_pem_); !s) return s;
+    }
+  }
+  std::vector<ClientToken> tokens;
+  if (!cfg.auth.tokens_file.empty()) {
+    if (Status s = load_tokens_file(cfg.auth.tokens_file, tokens); !s) return s;
+    std::string names;
+    for (const ClientToken& t : tokens) names += (names.empty() ? "" : ", ") + t.name;
+    spdlog::info("auth: {} client token(s) from {} ({}); every call but the health service needs one", tokens.size(),
+                 cfg.auth.tokens_file, names);
+  }
 
   if (Status s = ModelRegistry::load(cfg.models, cfg.scenes, d->models_); !s) return s;
   for (const auto& m : d->models_.models()) {
@@ -123,9 +159,28 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
     spdlog::info("dynamic batching: requests under {} states wait up to {} us for others", cfg.scheduler.preferred_batch_states,
                  cfg.limits.max_queue_delay_us);
   }
-  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, cfg.limits,
+  LimitsConfig limits = cfg.limits;
+  if (limits.max_message_bytes == 0) {
+    std::string how;
+    limits.max_message_bytes = derived_max_message_bytes(d->models_, limits.max_states_per_request, how);
+    if (limits.max_message_bytes == INT_MAX) spdlog::warn("limits.max_message_bytes: {} bytes, {}", limits.max_message_bytes, how);
+    else spdlog::info("limits.max_message_bytes: {} bytes, {}", limits.max_message_bytes, how);
+  } else {
+    spdlog::info("limits.max_message_bytes: {} bytes, as configured", limits.max_message_bytes);
+  }
+  d->max_message_bytes_ = limits.max_message_bytes;
+  d->access_ = std::make_unique<AccessControl>(std::move(tokens), limits, d->metrics_.get());
+  if (d->access_->limits_enabled()) {
+    const double rate = limits.client_requests_per_second;
+    const double burst = limits.client_burst > 0 ? static_cast<double>(limits.client_burst) : std::max(1.0, rate);
+    spdlog::info("per-client limits ({}): {}, {} compute requests in flight",
+                 d->access_->auth_enabled() ? "clients by token name" : "clients by peer address",
+                 rate > 0 ? fmt::format("{:g} requests/s (burst {:g})", rate, burst) : std::string("any request rate"),
+                 limits.client_max_concurrent > 0 ? std::to_string(limits.client_max_concurrent) : "any number of");
+  }
+  d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, limits,
                                                   RBDGRAD_VERSION, cfg.fixed_point_fallback, d->metrics_.get(),
-                                                  d->coalescer_.get());
+                                                  d->coalescer_.get(), d->access_.get());
   out = std::move(d);
   return Status::ok();
 }
@@ -148,11 +203,38 @@ Status Daemon::start() {
 
   grpc::ServerBuilder builder;
   int port = 0;
-  if (!listen.tcp.empty()) builder.AddListeningPort(listen.tcp, grpc::InsecureServerCredentials(), &port);
+  const TlsConfig& tls = options_.config.tls;
+  std::string tcp_mode = "plaintext";
+  if (!listen.tcp.empty()) {
+    std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+    if (tls.enabled()) {
+      grpc::SslServerCredentialsOptions ssl;
+      ssl.pem_key_cert_pairs.push_back({tls_key_pem_, tls_cert_pem_});
+      if (!tls.client_ca_file.empty()) {
+        ssl.pem_root_certs = tls_client_ca_pem_;
+        ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+        tcp_mode = "mutual TLS: clients need a certificate signed by " + tls.client_ca_file;
+      } else {
+        tcp_mode = "TLS";
+      }
+      credentials = grpc::SslServerCredentials(ssl);
+    } else if (!is_loopback_address(listen.tcp)) {
+      // check_security let it through: listen.insecure is set
+      spdlog::warn("tcp {} is not a loopback address and serves plaintext (listen.insecure: true)", listen.tcp);
+    }
+    builder.AddListeningPort(listen.tcp, credentials, &port);
+  }
+  // plaintext: the socket file's permissions say who may connect
   if (!listen.unix_socket.empty()) {
     builder.AddListeningPort("unix:" + listen.unix_socket, grpc::InsecureServerCredentials());
   }
-  const auto max_bytes = static_cast<int>(options_.config.limits.max_message_bytes);
+  if (access_->auth_enabled()) {
+    // the Dynamics handlers check tokens themselves; this guards the rest but health (reflection)
+    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+    interceptors.push_back(std::make_unique<AuthInterceptorFactory>(*access_));
+    builder.experimental().SetInterceptorCreators(std::move(interceptors));
+  }
+  const auto max_bytes = static_cast<int>(max_message_bytes_);
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);
   // gRPC sets SO_REUSEPORT by default: a second daemon on the same port would then share it silently
@@ -183,7 +265,8 @@ Status Daemon::start() {
     addresses_.push_back({"unix", listen.unix_socket});
   }
   server_ = std::move(server);
-  for (const ListenAddress& a : addresses_) spdlog::info("listening on {}", a.text());
+  for (const ListenAddress& a : addresses_)
+    spdlog::info("listening on {} ({})", a.text(), a.kind == "tcp" ? tcp_mode : "plaintext");
   return Status::ok();
 }
 

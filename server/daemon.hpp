@@ -13,6 +13,7 @@
 
 #include <grpcpp/server.h>
 
+#include "access_control.hpp"
 #include "backend_pool.hpp"
 #include "coalescer.hpp"
 #include "config.hpp"
@@ -40,10 +41,12 @@ struct DaemonOptions {
 
 class Daemon {
  public:
-  /// Loads the configured models (any failure is fatal: the error names the model) and the
+  /// Checks the security settings (check_security) and reads the TLS files and the tokens file
+  /// (errors name the file), loads the configured models (any failure is fatal: the error names the model) and the
   /// backends (a missing or broken plugin is logged and skipped; unavailable when none is ready),
   /// then calibrates the scheduler (config.scheduler). Logs each model's summary, each backend's
-  /// state and each latency model. Serves nothing yet.
+  /// state and each latency model, and the message size limit (derived from the models when
+  /// limits.max_message_bytes is 0). Serves nothing yet.
   static Status create(DaemonOptions options, std::unique_ptr<Daemon>& out);
 
   /// Stops (as stop()) if still serving.
@@ -51,8 +54,9 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
-  /// Starts serving on config.listen (TCP "host:port", port 0 = an ephemeral one; the Unix socket,
-  /// after removing a stale socket file). Logs every address. Errors: invalid_argument when no
+  /// Starts serving on config.listen (TCP "host:port", port 0 = an ephemeral one, with TLS when
+  /// configured; the Unix socket, always plaintext, after removing a stale socket file). Logs
+  /// every address. Errors: invalid_argument when no
   /// address is configured, failed_precondition when one cannot be bound (the socket of a live
   /// daemon is never taken over).
   Status start();
@@ -77,6 +81,8 @@ class Daemon {
   const Scheduler& scheduler() const noexcept { return *scheduler_; }
   const Metrics& metrics() const noexcept { return *metrics_; }
   const DynamicsService& service() const noexcept { return *service_; }
+  /// The largest message accepted or sent: limits.max_message_bytes, or derived from the models.
+  std::int64_t max_message_bytes() const noexcept { return max_message_bytes_; }
 
  private:
   explicit Daemon(DaemonOptions options) : options_(std::move(options)) {}
@@ -86,6 +92,10 @@ class Daemon {
   std::unique_ptr<BackendPool> backends_;
   std::unique_ptr<Scheduler> scheduler_;
   std::unique_ptr<Metrics> metrics_;  // before the service, which records into it
+  // the PEM files of config.tls, read at create
+  std::string tls_cert_pem_, tls_key_pem_, tls_client_ca_pem_;
+  std::int64_t max_message_bytes_ = 0;
+  std::unique_ptr<AccessControl> access_;  // before the service and the server, which use it
   std::unique_ptr<DynamicsService> service_;
   // after the service: destroyed first, it hands what it holds to the pools (the daemon has
   // drained by then)

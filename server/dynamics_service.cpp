@@ -22,6 +22,18 @@ class UnaryCall final : public ComputeCall, public grpc::ServerUnaryReactor {
   UnaryCall(Clock::time_point accepted, grpc::ByteBuffer* response, ComputeContext& context)
       : ComputeCall(accepted, response), context_(context) {}
 
+  /// The caller's token and its client's limits (`access` null: none); false (and the RPC
+  /// finished) when refused. The client's place is held until the call is done.
+  bool admit_client(AccessControl* access, const grpc::CallbackServerContext& ctx) {
+    if (access == nullptr) return true;
+    std::shared_ptr<AccessControl::Client> client;
+    grpc::Status st = access->identify(ctx, client);
+    if (st.ok()) st = access->admit(client, &ticket_);
+    if (st.ok()) return true;
+    Finish(st);
+    return false;
+  }
+
   /// Counts the call against max_concurrent_requests; false (and the RPC finished) when refused.
   bool admit() {
     switch (context_.admit()) {
@@ -29,6 +41,7 @@ class UnaryCall final : public ComputeCall, public grpc::ServerUnaryReactor {
         admitted_ = true;
         return true;
       case ComputeContext::Admission::kTooManyInFlight:
+        if (Metrics* m = context_.metrics()) m->record_rejection("max_concurrent_requests");
         Finish({grpc::StatusCode::RESOURCE_EXHAUSTED,
                 "too many requests in flight (limit max_concurrent_requests = " +
                     std::to_string(context_.limits().max_concurrent_requests) + ")"});
@@ -58,7 +71,15 @@ class UnaryCall final : public ComputeCall, public grpc::ServerUnaryReactor {
   }
 
   ComputeContext& context_;
+  AccessControl::Ticket ticket_;  // the client's place among its client_max_concurrent
   bool admitted_ = false;
+};
+
+// A stream refused before its first message (no valid token): finishes at once.
+class RefusedStream final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+ public:
+  explicit RefusedStream(grpc::Status status) { Finish(std::move(status)); }
+  void OnDone() override { delete this; }
 };
 
 void add_precisions(std::uint32_t flags, v1::BackendInfo& info) {
@@ -191,8 +212,9 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
 
 DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback,
-                                 Metrics* metrics, Coalescer* coalescer)
-    : context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics, coalescer),
+                                 Metrics* metrics, Coalescer* coalescer, AccessControl* access)
+    : access_(access),
+      context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics, coalescer),
       scheduler_(scheduler),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
@@ -219,7 +241,7 @@ grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* 
   // gRPC deletes nothing of ours: the call deletes itself in OnDone, which gRPC calls only after
   // this handler has returned it
   auto* call = new UnaryCall(accepted, response, context_);
-  if (!call->admit()) return call;
+  if (!call->admit_client(access_, *context) || !call->admit()) return call;
   if (Status s = call->prepare(*request, context_, -1, deadline); !s) {
     call->record_refusal(s);
     call->refuse(s);
@@ -230,15 +252,31 @@ grpc::ServerUnaryReactor* DynamicsService::Compute(grpc::CallbackServerContext* 
 }
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DynamicsService::ComputeStream(
-    grpc::CallbackServerContext* /*context*/) {
-  return new ComputeStreamReactor(context_, streams_);
+    grpc::CallbackServerContext* context) {
+  // the token once, for the whole stream; the client's limits for each message
+  std::shared_ptr<AccessControl::Client> client;
+  if (access_ != nullptr) {
+    if (grpc::Status st = access_->identify(*context, client); !st.ok()) return new RefusedStream(std::move(st));
+  }
+  return new ComputeStreamReactor(context_, streams_, access_, std::move(client));
+}
+
+bool DynamicsService::admit_call(grpc::CallbackServerContext* context, grpc::ServerUnaryReactor* reactor) {
+  if (access_ == nullptr) return true;
+  std::shared_ptr<AccessControl::Client> client;
+  grpc::Status st = access_->identify(*context, client);
+  if (st.ok()) st = access_->admit(client, nullptr);
+  if (st.ok()) return true;
+  reactor->Finish(st);
+  return false;
 }
 
 grpc::ServerUnaryReactor* DynamicsService::ListModels(grpc::CallbackServerContext* context,
                                                       const v1::ListModelsRequest* /*request*/,
                                                       v1::ListModelsResponse* response) {
-  *response = list_models_;
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
+  *response = list_models_;
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }
@@ -247,6 +285,7 @@ grpc::ServerUnaryReactor* DynamicsService::GetModel(grpc::CallbackServerContext*
                                                     const v1::GetModelRequest* request,
                                                     v1::GetModelResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
   const ServedModel* model = context_.models().find(request->name());
   if (model == nullptr) {
     reactor->Finish(to_grpc_status(not_found("model '" + request->name() + "' is not loaded (loaded models: " +
@@ -261,8 +300,9 @@ grpc::ServerUnaryReactor* DynamicsService::GetModel(grpc::CallbackServerContext*
 grpc::ServerUnaryReactor* DynamicsService::ListScenes(grpc::CallbackServerContext* context,
                                                       const v1::ListScenesRequest* /*request*/,
                                                       v1::ListScenesResponse* response) {
-  *response = list_scenes_;
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
+  *response = list_scenes_;
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }
@@ -270,6 +310,7 @@ grpc::ServerUnaryReactor* DynamicsService::ListScenes(grpc::CallbackServerContex
 grpc::ServerUnaryReactor* DynamicsService::GetScene(grpc::CallbackServerContext* context,
                                                     const v1::GetSceneRequest* request, v1::Scene* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
   const ServedModel* scene = context_.models().find_scene(request->name());
   if (scene == nullptr) {
     const std::string& names = context_.models().scene_names();
@@ -285,9 +326,10 @@ grpc::ServerUnaryReactor* DynamicsService::GetScene(grpc::CallbackServerContext*
 grpc::ServerUnaryReactor* DynamicsService::GetServerInfo(grpc::CallbackServerContext* context,
                                                          const v1::GetServerInfoRequest* /*request*/,
                                                          v1::GetServerInfoResponse* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
   *response = server_info_;
   describe_scheduling(context_.scheduler(), context_.backends(), context_.models(), *response);
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }
@@ -296,6 +338,7 @@ grpc::ServerUnaryReactor* DynamicsService::Calibrate(grpc::CallbackServerContext
                                                      const v1::CalibrateRequest* /*request*/,
                                                      v1::CalibrateResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
   std::unique_lock lock(calibrating_, std::try_to_lock);
   if (!lock.owns_lock()) {
     reactor->Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, "a calibration is running already"));

@@ -11,6 +11,7 @@
 #include <grpcpp/support/byte_buffer.h>
 #include <grpcpp/support/server_callback.h>
 
+#include "access_control.hpp"
 #include "backend_pool.hpp"
 #include "compute_call.hpp"
 #include "compute_stream.hpp"
@@ -29,12 +30,13 @@ using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
-  /// `models`, `backends`, `scheduler` and `metrics` (may be null) must outlive the service;
-  /// `version` is GetServerInfo's;
-  /// `fixed_point_fallback` is ServerConfig's ("" = none).
+  /// `models`, `backends`, `scheduler`, `metrics` and `access` (each of the last two may be null)
+  /// must outlive the service; `version` is GetServerInfo's;
+  /// `fixed_point_fallback` is ServerConfig's ("" = none). `access` checks every call's token and
+  /// per-client limits first (null: no check).
   DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                   const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "",
-                  Metrics* metrics = nullptr, Coalescer* coalescer = nullptr);
+                  Metrics* metrics = nullptr, Coalescer* coalescer = nullptr, AccessControl* access = nullptr);
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.
@@ -70,6 +72,11 @@ class DynamicsService final : public DynamicsServiceBase {
                                       rbdgrad::v1::CalibrateResponse* response) override;
 
  private:
+  // The token and the client's request rate, for a call other than Compute: false (and `reactor`
+  // finished with the refusal) when refused.
+  bool admit_call(grpc::CallbackServerContext* context, grpc::ServerUnaryReactor* reactor);
+
+  AccessControl* const access_;
   ComputeContext context_;
   StreamRegistry streams_;
   Scheduler& scheduler_;        // Calibrate replaces its latency models

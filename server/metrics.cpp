@@ -95,6 +95,11 @@ Status Metrics::create(const std::string& listen, std::function<std::vector<Queu
                              .Name("rbdgrad_fixed_point_fallback_states_total")
                              .Help("Fixed-point states that left the format's range and were computed again")
                              .Register(r);
+  m->rejected_ = &prometheus::BuildCounter()
+                      .Name("rbdgrad_rejected_requests_total")
+                      .Help("Calls refused before they were looked at, by reason: unauthenticated, client_rate, "
+                            "client_concurrency, max_concurrent_requests")
+                      .Register(r);
   m->queue_ = &prometheus::BuildHistogram()
                    .Name("rbdgrad_queue_seconds")
                    .Help("From acceptance to the start of the computation")
@@ -154,6 +159,10 @@ void Metrics::record(const RequestRecord& r) {
   if (r.queue_seconds >= 0) queue_->Add(by_backend, time_buckets()).Observe(r.queue_seconds);
   if (r.compute_seconds >= 0) compute_->Add(by_backend, time_buckets()).Observe(r.compute_seconds);
   total_->Add(by_backend, time_buckets()).Observe(r.total_seconds);
+}
+
+void Metrics::record_rejection(std::string_view reason) {
+  rejected_->Add({{"reason", std::string(reason)}}).Increment();
 }
 
 std::string Metrics::text() const {

@@ -70,6 +70,9 @@ class Metrics {
 
   /// Thread-safe; a few label lookups and atomic adds.
   void record(const RequestRecord& r);
+  /// A call refused before it was looked at, by `reason`: "unauthenticated" (no valid token),
+  /// "client_rate", "client_concurrency" (the per-client limits), "max_concurrent_requests".
+  void record_rejection(std::string_view reason);
 
   /// The bound HTTP port; 0 when not serving.
   int port() const noexcept { return port_; }
@@ -87,6 +90,7 @@ class Metrics {
   prometheus::Family<prometheus::Counter>* states_ = nullptr;
   prometheus::Family<prometheus::Counter>* failovers_ = nullptr;
   prometheus::Family<prometheus::Counter>* fallback_states_ = nullptr;
+  prometheus::Family<prometheus::Counter>* rejected_ = nullptr;
   prometheus::Counter* split_requests_ = nullptr;
   prometheus::Family<prometheus::Histogram>* queue_ = nullptr;
   prometheus::Family<prometheus::Histogram>* compute_ = nullptr;

@@ -28,6 +28,7 @@ struct Client::Impl {
 
   std::string address;
   ClientOptions options;
+  std::string authorization;  // "Bearer <token>", or "" for none
   std::shared_ptr<grpc::Channel> channel;        // one connection for every thread
   std::unique_ptr<v1::Dynamics::Stub> stub;      // thread-safe
 
@@ -43,8 +44,11 @@ struct Client::Impl {
   std::chrono::nanoseconds timeout_or_default(std::optional<std::chrono::nanoseconds> timeout) const {
     return timeout.value_or(options.default_timeout);
   }
-  // Sets the call's deadline and wait-for-ready.
+  // Sets the call's deadline and wait-for-ready, and adds the bearer token.
   void prepare(grpc::ClientContext& ctx, std::optional<std::chrono::nanoseconds> timeout) const;
+  // Adds the bearer token, if any ("authorization: Bearer ..."): plain metadata rather than call
+  // credentials, which gRPC sends only over TLS, and a token is also for the loopback and Unix socket.
+  void add_token(grpc::ClientContext& ctx) const;
 };
 
 namespace detail {

@@ -167,6 +167,7 @@ ComputeSession Client::open_session(const SessionOptions& options) const {
   grpc::ClientContext& ctx = state->call->ctx;
   if (options.lifetime) ctx.set_deadline(detail::deadline_after(*options.lifetime));
   ctx.set_wait_for_ready(impl_->options.wait_for_ready);
+  impl_->add_token(ctx);
   // the stream's headers leave with the first request: opening never blocks on the network
   ctx.set_initial_metadata_corked(true);
   state->call->stream = impl_->stub->ComputeStream(&ctx);

@@ -30,9 +30,16 @@ TEST(ServerConfigTest, DefaultsAreTheDocumentedValues) {
   EXPECT_EQ(cfg.inline_max_states, 128);
   EXPECT_EQ(cfg.fixed_point_fallback, "cpu");
   EXPECT_EQ(cfg.limits.max_states_per_request, 65536);
-  EXPECT_EQ(cfg.limits.max_message_bytes, 256 * 1024 * 1024);
+  EXPECT_EQ(cfg.limits.max_message_bytes, 0);  // derived from the models at start-up
   EXPECT_EQ(cfg.limits.max_concurrent_requests, 256);
   EXPECT_EQ(cfg.limits.max_queue_delay_us, 0);
+  EXPECT_EQ(cfg.limits.client_requests_per_second, 0.0);
+  EXPECT_EQ(cfg.limits.client_burst, 0);
+  EXPECT_EQ(cfg.limits.client_max_concurrent, 0);
+  EXPECT_FALSE(cfg.listen.insecure);
+  EXPECT_EQ(cfg.tls, TlsConfig{});
+  EXPECT_FALSE(cfg.tls.enabled());
+  EXPECT_EQ(cfg.auth.tokens_file, "");
   EXPECT_EQ(cfg.log_level, LogLevel::kInfo);
 }
 
@@ -41,13 +48,15 @@ TEST(ServerConfigTest, DefaultYamlEqualsBuiltInDefaults) {
   ASSERT_FALSE(text.empty());
   // start from a config that differs everywhere, so every field must come from the file
   ServerConfig cfg;
-  cfg.listen = {"x:1", "/y"};
+  cfg.listen = {"x:1", "/y", true};
+  cfg.tls = {"/c.pem", "/k.pem", "/ca.pem"};
+  cfg.auth.tokens_file = "/t";
   cfg.models = {};
   cfg.plugins = {PluginConfig{"/p.so", {}}};
   cfg.workers = 7;
   cfg.inline_max_states = 9;
   cfg.fixed_point_fallback = "";
-  cfg.limits = {1, 2, 3, 4};
+  cfg.limits = {1, 2, 3, 4, 5.5, 6, 7};
   cfg.log_level = LogLevel::kError;
   const Status s = parse_config(text, "default.yaml", cfg);
   ASSERT_TRUE(s.is_ok()) << s.to_string();
@@ -344,6 +353,107 @@ TEST(ServerConfigTest, UnknownOrBadFlagIsAnError) {
   EXPECT_FALSE(apply_flag_overrides({"--workers"}, cfg).is_ok());
   EXPECT_FALSE(apply_flag_overrides({"--workers", "x"}, cfg).is_ok());
   EXPECT_FALSE(apply_flag_overrides({"--log-level", "loud"}, cfg).is_ok());
+}
+
+TEST(ServerConfigTest, SecuritySectionsAndClientLimits) {
+  ServerConfig cfg;
+  const Status s = parse_config(
+      "listen:\n  tcp: \"0.0.0.0:50051\"\n  insecure: true\n"
+      "tls:\n  cert_file: /etc/rbdgrad/server.pem\n  key_file: /etc/rbdgrad/server.key\n"
+      "  client_ca_file: /etc/rbdgrad/clients-ca.pem\n"
+      "auth:\n  tokens_file: /etc/rbdgrad/tokens\n"
+      "limits:\n  client_requests_per_second: 0.5\n  client_burst: 2\n  client_max_concurrent: 3\n"
+      "  max_message_bytes: 1048576\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  EXPECT_TRUE(cfg.listen.insecure);
+  EXPECT_EQ(cfg.listen.unix_socket, "/tmp/rbdgradd.sock");  // kept
+  EXPECT_EQ(cfg.tls.cert_file, "/etc/rbdgrad/server.pem");
+  EXPECT_EQ(cfg.tls.key_file, "/etc/rbdgrad/server.key");
+  EXPECT_EQ(cfg.tls.client_ca_file, "/etc/rbdgrad/clients-ca.pem");
+  EXPECT_TRUE(cfg.tls.enabled());
+  EXPECT_EQ(cfg.auth.tokens_file, "/etc/rbdgrad/tokens");
+  EXPECT_EQ(cfg.limits.client_requests_per_second, 0.5);
+  EXPECT_EQ(cfg.limits.client_burst, 2);
+  EXPECT_EQ(cfg.limits.client_max_concurrent, 3);
+  EXPECT_EQ(cfg.limits.max_message_bytes, 1048576);  // an explicit value wins over the derived one
+  const std::string described = describe(cfg);
+  EXPECT_NE(described.find("insecure: true"), std::string::npos) << described;
+  EXPECT_NE(described.find("client CA /etc/rbdgrad/clients-ca.pem (mutual TLS)"), std::string::npos) << described;
+  EXPECT_NE(described.find("auth: tokens from /etc/rbdgrad/tokens"), std::string::npos) << described;
+  EXPECT_NE(describe(ServerConfig{}).find("max_message_bytes derived"), std::string::npos);
+
+  // empty sections keep the defaults
+  ServerConfig empty;
+  ASSERT_TRUE(parse_config("tls:\nauth:\n", "t", empty).is_ok());
+  EXPECT_EQ(empty, ServerConfig{});
+
+  const std::pair<const char*, const char*> bad[] = {
+      {"listen:\n  insecure: yes\n", "'listen.insecure' (line 2): expected true or false"},
+      {"listen:\n  insecure: [true]\n", "'listen.insecure'"},
+      {"tls:\n  cert: /x\n", "unknown key 'tls.cert' (line 2)"},
+      {"tls:\n  cert_file: [a, b]\n", "'tls.cert_file' (line 2): expected a string"},
+      {"tls: /x.pem\n", "'tls' (line 1): expected a mapping"},
+      {"auth:\n  tokens: /x\n", "unknown key 'auth.tokens'"},
+      {"auth:\n  tokens_file: {a: 1}\n", "'auth.tokens_file'"},
+      {"limits:\n  client_requests_per_second: -1\n", "'limits.client_requests_per_second' (line 2): value -1 is outside"},
+      {"limits:\n  client_requests_per_second: fast\n", "'limits.client_requests_per_second' (line 2): expected a number"},
+      {"limits:\n  client_requests_per_second: .nan\n", "'limits.client_requests_per_second'"},
+      {"limits:\n  client_burst: -1\n", "'limits.client_burst' (line 2): value -1 is outside [0, 2147483647]"},
+      {"limits:\n  client_burst: 1.5\n", "'limits.client_burst'"},
+      {"limits:\n  client_max_concurrent: -2\n", "'limits.client_max_concurrent'"},
+      {"limits:\n  max_message_bytes: -1\n", "'limits.max_message_bytes'"},
+      {"limits:\n  max_message_bytes: 2147483648\n", "'limits.max_message_bytes'"},
+  };
+  for (const auto& [text, want] : bad) {
+    ServerConfig c;
+    const Status st = parse_config(text, "t", c);
+    EXPECT_FALSE(st.is_ok()) << text;
+    EXPECT_NE(st.message().find(want), std::string::npos) << text << ": " << st.message();
+  }
+}
+
+TEST(ServerConfigTest, LoopbackAddresses) {
+  for (const char* a : {"127.0.0.1:50051", "127.1.2.3:0", "localhost:50051", "LOCALHOST:1", "[::1]:50051", "::1:50051"})
+    EXPECT_TRUE(is_loopback_address(a)) << a;
+  for (const char* a : {"0.0.0.0:50051", ":50051", "[::]:50051", "10.1.2.3:50051", "128.0.0.1:1", "example.com:50051",
+                        "localhost.example.com:1", "[::1:50051", ""})
+    EXPECT_FALSE(is_loopback_address(a)) << a;
+}
+
+TEST(ServerConfigTest, NonLoopbackWithoutTlsNeedsInsecure) {
+  ServerConfig cfg;
+  EXPECT_TRUE(check_security(cfg).is_ok());  // the defaults: loopback, plaintext
+  cfg.listen.tcp = "0.0.0.0:50051";
+  const Status refused = check_security(cfg);
+  ASSERT_FALSE(refused.is_ok());
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(refused.message(),
+            "listen.tcp '0.0.0.0:50051' is not a loopback address and TLS is off: set tls.cert_file and "
+            "tls.key_file, or listen.insecure: true to serve it in plaintext anyway");
+  // either lifts it
+  ServerConfig insecure = cfg;
+  insecure.listen.insecure = true;
+  EXPECT_TRUE(check_security(insecure).is_ok());
+  ServerConfig tls = cfg;
+  tls.tls.cert_file = "/s.pem";
+  tls.tls.key_file = "/s.key";
+  EXPECT_TRUE(check_security(tls).is_ok());
+  // no TCP at all: only the Unix socket, guarded by its permissions
+  ServerConfig unix_only = cfg;
+  unix_only.listen.tcp = "";
+  EXPECT_TRUE(check_security(unix_only).is_ok());
+  // the flag --listen counts as well as the file
+  ServerConfig flagged;
+  ASSERT_TRUE(apply_flag_overrides({"--listen", "[::]:7000"}, flagged).is_ok());
+  EXPECT_FALSE(check_security(flagged).is_ok());
+
+  ServerConfig half;
+  half.tls.cert_file = "/s.pem";
+  EXPECT_NE(check_security(half).message().find("tls.cert_file and tls.key_file go together"), std::string::npos);
+  ServerConfig ca_only;
+  ca_only.tls.client_ca_file = "/ca.pem";
+  EXPECT_NE(check_security(ca_only).message().find("tls.client_ca_file (mutual TLS) needs TLS"), std::string::npos);
 }
 
 TEST(ServerConfigTest, DescribeMentionsListenAddressAndModels) {

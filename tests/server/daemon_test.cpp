@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "daemon_test_support.hpp"
+#include "message_size.hpp"
 #include "model_source.hpp"
 #include "request_batch.hpp"
 #include "rbdgrad/algorithm/evaluate.hpp"
@@ -331,7 +332,8 @@ TEST_F(DaemonTest, ServerInfoListsBackendsReadyOrNotAndTheLimits) {
   EXPECT_EQ(resp.version(), RBDGRAD_VERSION_FOR_TESTS);
   EXPECT_EQ(resp.max_states_per_request(), 1000u);
   EXPECT_EQ(resp.max_concurrent_requests(), 256u);
-  EXPECT_EQ(resp.max_message_bytes(), 256u << 20);
+  // derived: 1000 states of panda (the larger model), every output in f64, and the margin
+  EXPECT_EQ(resp.max_message_bytes(), largest_compute_message_bytes(1000, kPandaNv));
   std::map<std::string, v1::BackendInfo> backends;
   for (const v1::BackendInfo& b : resp.backends()) backends[b.name()] = b;
   ASSERT_EQ(backends.size(), 3u);

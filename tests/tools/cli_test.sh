@@ -361,6 +361,68 @@ YAML
   stop_daemon
 }
 
+# `rbdgrad health` and the connection options against a daemon with TLS and tokens (certificates
+# made here, by tests/support/make_test_certs.sh)
+case_daemon_health_tls_token() {
+  bash "$SOURCE_DIR/tests/support/make_test_certs.sh" "$WORK/certs"
+  printf 'mpc %s\n' "tok-cli-4e1d" >"$WORK/tokens"
+  printf 'tok-cli-4e1d\n' >"$WORK/token"
+  printf 'tok-wrong\n' >"$WORK/wrong-token"
+  cat >"$WORK/secure.yaml" <<YAML
+tls:
+  cert_file: $WORK/certs/server.pem
+  key_file: $WORK/certs/server.key
+auth:
+  tokens_file: $WORK/tokens
+log_level: warn
+YAML
+  start_daemon --config "$WORK/secure.yaml"
+  local tls=(--tls-ca "$WORK/certs/ca.pem")
+  # health needs no token; SERVING exits 0
+  expect_exit 0 "$RBDGRAD" "${tls[@]}" --server "$SERVER" health
+  expect_in "$WORK/stdout" "SERVING"
+  expect_exit 0 "$RBDGRAD" health --server "$SERVER" --tls-ca="$WORK/certs/ca.pem"
+  # an unknown service: the call fails (NOT_FOUND), exit 1
+  expect_exit 1 "$RBDGRAD" "${tls[@]}" --server "$SERVER" health --service no.such.Service
+  expect_in "$WORK/stderr" "rbdgrad health: NOT_FOUND"
+  # the other commands need the token, before or after the command
+  expect_exit 0 "$RBDGRAD" "${tls[@]}" --token-file "$WORK/token" --server "$SERVER" models
+  expect_in "$WORK/stdout" "iiwa14"
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --n 4 "${tls[@]}" --token-file "$WORK/token"
+  expect_in "$WORK/stdout" "4 of 4 states computed"
+  expect_exit 1 "$RBDGRAD" "${tls[@]}" --server "$SERVER" models
+  expect_in "$WORK/stderr" "rbdgrad models: UNAUTHENTICATED: missing bearer token"
+  expect_exit 1 "$RBDGRAD" "${tls[@]}" --token-file "$WORK/wrong-token" --server "$SERVER" info
+  expect_in "$WORK/stderr" "UNAUTHENTICATED: invalid bearer token"
+  # plaintext, or a CA the server's certificate does not chain to: no connection
+  expect_exit 1 "$RBDGRAD" --server "$SERVER" health
+  expect_in "$WORK/stderr" "UNAVAILABLE"
+  expect_exit 1 "$RBDGRAD" --tls-ca "$WORK/certs/other_ca.pem" --server "$SERVER" health
+  expect_in "$WORK/stderr" "UNAVAILABLE"
+  # usage: unreadable files, a certificate without its key
+  expect_exit 2 "$RBDGRAD" --token-file "$WORK/none" --server "$SERVER" models
+  expect_in "$WORK/stderr" "--token-file: cannot read '$WORK/none'"
+  expect_exit 2 "$RBDGRAD" --tls-ca "$WORK/none.pem" --server "$SERVER" health
+  expect_in "$WORK/stderr" "tls.ca_file: cannot read '$WORK/none.pem'"
+  expect_exit 2 "$RBDGRAD" --tls-cert "$WORK/certs/client.pem" --server "$SERVER" health
+  expect_in "$WORK/stderr" "--tls-cert and --tls-key go together"
+  expect_exit 2 "$RBDGRAD" --tls-ca
+  expect_in "$WORK/stderr" "option '--tls-ca' needs a value"
+  expect_exit 0 "$RBDGRAD" health --help
+  expect_in "$WORK/stdout" "exit status: 0 SERVING"
+  expect_exit 0 "$RBDGRAD" --help
+  expect_in "$WORK/stdout" "--token-file FILE"
+  stop_daemon
+  # no daemon at all: exit 1
+  expect_exit 1 "$RBDGRAD" health --server 127.0.0.1:1
+  expect_in "$WORK/stderr" "rbdgrad health: UNAVAILABLE"
+  # a plaintext daemon on a non-loopback address needs listen.insecure: the start-up check says so
+  expect_exit 1 "$RBDGRADD" --once --listen 0.0.0.0:0 --unix-socket ""
+  cat "$WORK/stdout" "$WORK/stderr" >"$WORK/log"  # (the daemon logs to stdout)
+  expect_in "$WORK/log" "is not a loopback address and TLS is off"
+  expect_in "$WORK/log" "listen.insecure: true"
+}
+
 # the Pinocchio reference through the daemon, like eval; f64 results equal eval's exactly
 #   daemon_compute_reference ROBOT PRECISION OUTPUT_TYPE TOL [compare_results.py options]
 case_daemon_compute_reference() {

@@ -15,6 +15,10 @@ namespace rbdgrad::cli {
 namespace {
 
 constexpr OptionSpec kOptions[] = {kServerOption,
+                                   kTlsCaOption,
+                                   kTlsCertOption,
+                                   kTlsKeyOption,
+                                   kTokenFileOption,
                                    {"timeout", "SECONDS", "deadline of the call; default 300 (a calibration takes seconds)"},
                                    {"help", "", "show this help"}};
 

@@ -21,6 +21,10 @@ namespace {
 
 constexpr OptionSpec kOptions[] = {
     kServerOption,
+    kTlsCaOption,
+    kTlsCertOption,
+    kTlsKeyOption,
+    kTokenFileOption,
     {"model", "NAME", "a model the daemon serves (rbdgrad models); default iiwa14"},
     {"scene", "NAME", "a scene the daemon serves (rbdgrad scenes) instead of a model: its joints, its outputs by default"},
     {"n", "N", "compute N random states: q within the joint limits, qd in [-1,1], tau within half the effort limit"},

@@ -10,7 +10,8 @@ namespace rbdgrad::cli {
 
 namespace {
 
-constexpr OptionSpec kOptions[] = {kServerOption, kTimeoutOption, {"help", "", "show this help"}};
+constexpr OptionSpec kOptions[] = {kServerOption,    kTlsCaOption,   kTlsCertOption,           kTlsKeyOption,
+                                   kTokenFileOption, kTimeoutOption, {"help", "", "show this help"}};
 
 std::string bytes_text(std::uint64_t bytes) {
   if (bytes >= (1u << 20) && bytes % (1u << 20) == 0) return std::to_string(bytes >> 20) + " MiB";

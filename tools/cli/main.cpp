@@ -8,6 +8,7 @@
 #include "compute_command.hpp"
 #include "eval_command.hpp"
 #include "calibrate_command.hpp"
+#include "health_command.hpp"
 #include "info_command.hpp"
 #include "model_command.hpp"
 #include "models_command.hpp"
@@ -30,37 +31,55 @@ constexpr Command kCommands[] = {
     {"models", rbdgrad::cli::kModelsSummary, rbdgrad::cli::run_models_command},
     {"scenes", rbdgrad::cli::kScenesSummary, rbdgrad::cli::run_scenes_command},
     {"compute", rbdgrad::cli::kComputeSummary, rbdgrad::cli::run_compute_command},
+    {"health", rbdgrad::cli::kHealthSummary, rbdgrad::cli::run_health_command},
 };
 
+// The connection's options, which may come before the command (each is handed to the command)
+constexpr std::string_view kGlobalOptions[] = {"--server", "--tls-ca", "--tls-cert", "--tls-key", "--token-file"};
+
 void print_usage(std::ostream& os) {
-  os << "usage: rbdgrad [--server ADDR] <command> [options]\n"
+  os << "usage: rbdgrad [--server ADDR] [--tls-ca FILE] [--tls-cert FILE --tls-key FILE] [--token-file FILE]\n"
+     << "               <command> [options]\n"
      << "       rbdgrad <command> --help | rbdgrad --help | rbdgrad --version\n\n"
      << "Rigid-body dynamics and their derivatives (rbdgrad " << RBDGRAD_VERSION << ").\n"
-     << "info, calibrate, models, scenes and compute talk to the daemon rbdgradd at --server (default\n"
-     << "127.0.0.1:50051; unix:/tmp/rbdgradd.sock is faster on the same host); eval and model compute\n"
-     << "in-process.\n\ncommands:\n";
+     << "info, calibrate, models, scenes, compute and health talk to the daemon rbdgradd at --server\n"
+     << "(default 127.0.0.1:50051; unix:/tmp/rbdgradd.sock is faster on the same host); eval and model\n"
+     << "compute in-process.\n\ncommands:\n";
   for (const Command& c : kCommands) os << "  " << c.name << std::string(11 - c.name.size(), ' ') << c.summary << "\n";
+  os << "\nconnection options (before or after the command):\n"
+     << "  --server ADDR       HOST:PORT or unix:PATH; default 127.0.0.1:50051\n"
+     << "  --tls-ca FILE       TLS: the PEM CA certificate the server's certificate must chain to\n"
+     << "  --tls-cert FILE     mutual TLS: this client's PEM certificate chain (with --tls-key)\n"
+     << "  --tls-key FILE      mutual TLS: this client's PEM private key\n"
+     << "  --token-file FILE   send the token in FILE as 'authorization: Bearer TOKEN' (auth.tokens_file)\n";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  // `--server ADDR` may come before the command: it is handed to the command as its own option
-  // (so that giving it on both sides is the command's "given twice" error)
+  // The connection's options may come before the command: they are handed to the command as its
+  // own options (so that giving one on both sides is the command's "given twice" error)
   std::vector<const char*> global_server;
   int at = 1;
-  while (at < argc && std::string_view(argv[at]).substr(0, 8) == "--server") {
+  for (bool more = true; more && at < argc;) {
+    more = false;
     const std::string_view arg = argv[at];
-    if (arg == "--server" && at + 1 < argc) {
-      global_server = {argv[at], argv[at + 1]};
-      at += 2;
-    } else if (arg.substr(0, 9) == "--server=") {
-      global_server = {argv[at]};
-      at += 1;
-    } else {
-      std::cerr << "rbdgrad: option '--server' needs a value (ADDR)\n";
-      print_usage(std::cerr);
-      return 2;
+    for (std::string_view option : kGlobalOptions) {
+      if (arg == option && at + 1 < argc) {
+        global_server.insert(global_server.end(), {argv[at], argv[at + 1]});
+        at += 2;
+      } else if (arg.substr(0, option.size() + 1) == std::string(option) + "=") {
+        global_server.push_back(argv[at]);
+        at += 1;
+      } else if (arg == option) {
+        std::cerr << "rbdgrad: option '" << option << "' needs a value\n";
+        print_usage(std::cerr);
+        return 2;
+      } else {
+        continue;
+      }
+      more = true;
+      break;
     }
   }
   if (at >= argc) {

@@ -10,7 +10,8 @@ namespace rbdgrad::cli {
 
 namespace {
 
-constexpr OptionSpec kOptions[] = {kServerOption, kTimeoutOption, {"help", "", "show this help"}};
+constexpr OptionSpec kOptions[] = {kServerOption,    kTlsCaOption,   kTlsCertOption,           kTlsKeyOption,
+                                   kTokenFileOption, kTimeoutOption, {"help", "", "show this help"}};
 
 }  // namespace
 

@@ -3,7 +3,9 @@
 
 #include <charconv>
 #include <cmath>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
 namespace rbdgrad::cli {
 
@@ -16,9 +18,34 @@ std::string make_client(const Args& args, std::unique_ptr<Client>& out) {
       return "--timeout: '" + *t + "' is not a positive number of seconds";
     options.default_timeout = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(seconds));
   }
+  if (const std::string* path = args.value("token-file")) {
+    std::ifstream in(*path);
+    if (!in) return "--token-file: cannot read '" + *path + "'";
+    // the token is the file's one word: a trailing newline or spaces are not part of it
+    std::string token, extra;
+    in >> token;
+    if (token.empty()) return "--token-file: '" + *path + "' is empty";
+    if (in >> extra) return "--token-file: '" + *path + "' holds more than one word (the token alone, please)";
+    options.bearer_token = token;
+  }
+  if (args.has("tls-ca") || args.has("tls-cert") || args.has("tls-key")) {
+    if (args.has("tls-cert") != args.has("tls-key")) return "--tls-cert and --tls-key go together";
+    TlsOptions tls;
+    tls.ca_file = args.value_or("tls-ca", "");
+    tls.cert_file = args.value_or("tls-cert", "");
+    tls.key_file = args.value_or("tls-key", "");
+    options.tls = tls;
+  }
   const std::string address = args.value_or("server", kDefaultServerAddress);
   if (address.empty()) return "--server: empty address";
-  out = std::make_unique<Client>(address, options);
+  try {
+    out = std::make_unique<Client>(address, options);
+  } catch (const ClientError& e) {
+    // a TLS file that cannot be read: "client: tls.ca_file: cannot read 'x'"
+    std::string message = e.message();
+    if (message.rfind("client: ", 0) == 0) message.erase(0, 8);
+    return message;
+  }
   return "";
 }
 

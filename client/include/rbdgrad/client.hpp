@@ -13,8 +13,9 @@
 // Calls: compute (sync: throwing, or returning an RpcStatus), compute_async (a std::future, or a
 // callback on a gRPC thread; no thread per call), ComputeSession (one long-lived stream for a
 // control loop: one request per step, responses in order, buffers reused), list_models,
-// get_model, list_scenes, get_scene, server_info. Every call has a deadline: its own timeout, else
-// the client's default.
+// get_model, list_scenes, get_scene, server_info, check_health. Every call has a deadline: its own
+// timeout, else the client's default. ClientOptions::tls and bearer_token reach a daemon with TLS
+// (or mutual TLS) and token authentication.
 //
 // Threads: a Client may be used from any number of threads at once (they share one channel, i.e.
 // one connection). A ComputeSession is used by one thread at a time.
@@ -43,14 +44,34 @@ namespace rbdgrad {
 inline constexpr std::string_view kDefaultServerAddress = "127.0.0.1:50051";
 inline constexpr std::string_view kDefaultUnixSocketAddress = "unix:/tmp/rbdgradd.sock";
 
+// TLS towards a daemon whose TCP listener has it (rbdgradd's `tls` section). The files are read
+// when the Client is constructed.
+struct TlsOptions {
+  // PEM CA certificate(s) the server's certificate must chain to. "" = gRPC's default roots.
+  std::string ca_file;
+  // The client's PEM certificate chain and private key, for a server that asks for mutual TLS
+  // (tls.client_ca_file): both or neither.
+  std::string cert_file;
+  std::string key_file;
+  // The name the server's certificate must carry when it is not the address's host (e.g. when
+  // dialing an IP address). "" = the host of the address.
+  std::string target_name_override;
+};
+
 struct ClientOptions {
   // Deadline of a call that does not set its own timeout. Default 10 s.
   std::chrono::nanoseconds default_timeout = std::chrono::seconds(10);
-  // Largest message sent or received, in bytes (the daemon's default limit is the same). Default 256 MiB.
+  // Largest message sent or received, in bytes. Default 256 MiB. (The daemon's own limit is
+  // derived from its models and largest batch unless configured; server_info() tells it.)
   std::int64_t max_message_bytes = std::int64_t{256} << 20;
   // false: a call fails at once with UNAVAILABLE when no server answers at the address.
   // true: a call waits for the server until its deadline (DEADLINE_EXCEEDED). Default false.
   bool wait_for_ready = false;
+  // TLS; empty = plaintext (the default, and what a daemon's Unix socket speaks).
+  std::optional<TlsOptions> tls;
+  // Sent with every call as the metadata "authorization: Bearer <token>", for a daemon with
+  // auth.tokens_file. "" = none (such a daemon answers UNAUTHENTICATED).
+  std::string bearer_token;
 };
 
 struct SessionOptions {
@@ -104,8 +125,9 @@ class RBDGRAD_CLIENT_EXPORT Client {
   using ComputeCallback = std::function<void(RpcStatus status, ComputeResult result)>;
 
   /// \param address  a gRPC target: "127.0.0.1:50051", "localhost:50051", "unix:/path/to.sock".
-  ///                 Connecting is lazy: constructing never fails, the first call reports an
-  ///                 unreachable server (UNAVAILABLE).
+  ///                 Connecting is lazy: the first call reports an unreachable server (or a
+  ///                 failed TLS handshake) as UNAVAILABLE. Constructing throws ClientError
+  ///                 (INVALID_ARGUMENT) only when a file of options.tls cannot be read.
   explicit Client(std::string address = std::string(kDefaultServerAddress), ClientOptions options = {});
   /// Waits for the asynchronous calls still in flight to complete (each by its deadline at the
   /// latest); their callbacks may still be running when it returns.
@@ -155,6 +177,12 @@ class RBDGRAD_CLIENT_EXPORT Client {
   RpcStatus get_scene(const std::string& name, SceneDescription& out,
                       std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+
+  /// The standard gRPC health check (grpc.health.v1.Health/Check) of `service` ("" = the whole
+  /// server), which needs no token: `status` is "SERVING", "NOT_SERVING" (e.g. while the daemon
+  /// stops), "SERVICE_UNKNOWN" or "UNKNOWN".
+  RpcStatus check_health(std::string& status, const std::string& service = "",
+                         std::optional<std::chrono::nanoseconds> timeout = {}) const;
 
   /// Has the server time its backends again (its scheduler's latency models; seconds, best on an
   /// idle server): `log` gets one line per model measured, `info` the server's state afterwards.
