@@ -75,8 +75,10 @@ void BM_HostMinverse(benchmark::State& st) {
 }
 BENCHMARK(BM_HostMinverse);
 
-// the kernel's C simulation, one state
+// the kernel's C simulation, one state from tau; the argument is the top function's mode: both
+// column sets, or a scene's d/dq or d/dqd alone (the other datapaths skipped)
 void BM_CsimKernel(benchmark::State& st) {
+  const int mode = static_cast<int>(st.range(0));
   const int nv = iiwa().nv;
   State s(nv);
   WorkspaceTpl<double> ws(iiwa());
@@ -89,11 +91,15 @@ void BM_CsimKernel(benchmark::State& st) {
     std::abort();
   std::vector<DeviceWord> out(static_cast<std::size_t>(AxiLayout::out_words(nv)));
   for (auto _ : st) {
-    rbdgrad_fpga_gradient(robot.data(), in.data(), out.data(), 1, 0);
+    rbdgrad_fpga_gradient(robot.data(), in.data(), out.data(), 1, mode);
     benchmark::DoNotOptimize(out.data());
   }
 }
-BENCHMARK(BM_CsimKernel);
+BENCHMARK(BM_CsimKernel)
+    ->ArgName("mode")
+    ->Arg(fpga::kModeTauInput)
+    ->Arg(fpga::kModeTauInput | fpga::kModeNoDqd)
+    ->Arg(fpga::kModeTauInput | fpga::kModeNoDq);
 
 }  // namespace
 

@@ -30,14 +30,14 @@ Status CsimRunner::set_robot(const std::vector<DeviceWord>& robot) {
   return Status::ok();
 }
 
-Status CsimRunner::start(int slot, int n_states, bool tau_input) {
+Status CsimRunner::start(int slot, int n_states, int mode) {
   if (robot_.empty()) return Status(StatusCode::kInternal, "csim: start before set_robot");
   if (n_states < 1 || static_cast<std::size_t>(n_states) > chunk_states_)
     return Status(StatusCode::kInternal, "csim: " + std::to_string(n_states) + " states in a slot of " +
                                              std::to_string(chunk_states_));
   if (pending_[slot].n_states != 0) return Status(StatusCode::kInternal, "csim: slot started twice without a wait");
   clear_status_words(out_[slot].data(), nv_, n_states);
-  pending_[slot] = {n_states, tau_input};
+  pending_[slot] = {n_states, mode};
   return Status::ok();
 }
 
@@ -46,7 +46,7 @@ Status CsimRunner::wait(int slot) {
   if (p.n_states == 0) return Status(StatusCode::kInternal, "csim: wait on a slot that was not started");
   pending_[slot] = {};
   const std::lock_guard lock(top_function_lock());
-  rbdgrad_fpga_gradient(robot_.data(), in_[slot].data(), out_[slot].data(), p.n_states, p.tau_input ? 1 : 0);
+  rbdgrad_fpga_gradient(robot_.data(), in_[slot].data(), out_[slot].data(), p.n_states, p.mode);
   return Status::ok();
 }
 

@@ -18,7 +18,7 @@ class CsimRunner final : public KernelRunner {
   Status set_robot(const std::vector<DeviceWord>& robot) override;
   DeviceWord* input(int slot) override { return in_[slot].data(); }
   const DeviceWord* output(int slot) const override { return out_[slot].data(); }
-  Status start(int slot, int n_states, bool tau_input) override;
+  Status start(int slot, int n_states, int mode) override;
   /// Runs the slot's states through the top function. The top function keeps its on-chip memory
   /// in statics (as the hardware has one set), so runs of every instance in the process take
   /// turns on one lock.
@@ -30,7 +30,7 @@ class CsimRunner final : public KernelRunner {
  private:
   struct Pending {
     int n_states = 0;  // 0 = nothing started
-    bool tau_input = false;
+    int mode = 0;
   };
 
   int nv_;

@@ -68,19 +68,23 @@ Status FpgaInstance::compute(const rbdgrad_batch* batch) {
   const std::size_t chunks = (n + chunk_states_ - 1) / chunk_states_;
   auto chunk_begin = [&](std::size_t c) { return c * chunk_states_; };
   auto chunk_size = [&](std::size_t c) { return std::min(chunk_states_, n - c * chunk_states_); };
-  const bool tau_input = b.input_kind == RBDGRAD_INPUT_TAU;
+  // the kernel's mode: the input kind, and the column datapaths the batch's outputs do not need
+  // bypassed (a scene's skips)
+  const int mode = (b.input_kind == RBDGRAD_INPUT_TAU ? kModeTauInput : 0) |
+                   ((b.outputs & RBDGRAD_OUTPUT_DQDD_DQ) ? 0 : kModeNoDq) |
+                   ((b.outputs & RBDGRAD_OUTPUT_DQDD_DQD) ? 0 : kModeNoDqd);
 
   Failures failures;
   // double buffering: chunk c + 1 is packed and queued while chunk c computes; a slot is reused
   // only after its previous chunk has been waited for and read
   pack_chunk(b, 0, 0, chunk_size(0), failures);
-  if (Status s = runner_->start(0, static_cast<int>(chunk_size(0)), tau_input); !s) return s;
+  if (Status s = runner_->start(0, static_cast<int>(chunk_size(0)), mode); !s) return s;
   for (std::size_t c = 0; c < chunks; ++c) {
     const int slot = static_cast<int>(c % KernelRunner::kSlots);
     if (c + 1 < chunks) {
       const int next = static_cast<int>((c + 1) % KernelRunner::kSlots);
       pack_chunk(b, next, chunk_begin(c + 1), chunk_size(c + 1), failures);
-      if (Status s = runner_->start(next, static_cast<int>(chunk_size(c + 1)), tau_input); !s) {
+      if (Status s = runner_->start(next, static_cast<int>(chunk_size(c + 1)), mode); !s) {
         static_cast<void>(runner_->wait(slot));  // leave no run behind
         return s;
       }

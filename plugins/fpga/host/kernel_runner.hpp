@@ -26,10 +26,10 @@ class KernelRunner {
   virtual DeviceWord* input(int slot) = 0;
   /// Its output area: chunk_states * AxiLayout::out_words(nv) words, valid after wait(slot).
   virtual const DeviceWord* output(int slot) const = 0;
-  /// Hands the first n_states states of the slot's input to the kernel (uploads and launches).
-  /// Clears their status words in the output area first, so that a state the kernel never
-  /// writes does not read as a result.
-  virtual Status start(int slot, int n_states, bool tau_input) = 0;
+  /// Hands the first n_states states of the slot's input to the kernel (uploads and launches), with
+  /// the top function's `mode` (kModeTauInput, kModeNoDq, kModeNoDqd). Clears their status words in
+  /// the output area first, so that a state the kernel never writes does not read as a result.
+  virtual Status start(int slot, int n_states, int mode) = 0;
   /// Returns once the slot's run has finished and its output is on the host.
   virtual Status wait(int slot) = 0;
 

@@ -40,7 +40,7 @@ inline constexpr int kKernelColumnUnroll = 2;
 /// PIPELINE II of joint_transforms' loop over joints in kernel/gradient_kernel.hpp.
 inline constexpr int kKernelJointTransformII = 1;
 
-/// What the kernel's input u holds (the top function's tau_input).
+/// What the kernel's input u holds (the top function's mode bit kModeTauInput).
 enum class InputKind {
   kQdd,  // u = qdd: copied
   kTau,  // u = tau: qdd = M^-1 (tau - c), with c from a first RNEA pass (the code runs its columns too)

@@ -16,7 +16,7 @@ namespace {
 
 constexpr const char* kKernelName = "rbdgrad_fpga_gradient";
 // the top function's arguments (kernel/gradient_top.hpp)
-enum Arg { kRobot = 0, kIn = 1, kOut = 2, kNStates = 3, kTauInput = 4 };
+enum Arg { kRobot = 0, kIn = 1, kOut = 2, kNStates = 3, kMode = 4 };
 
 class XrtRunner final : public KernelRunner {
  public:
@@ -66,7 +66,7 @@ class XrtRunner final : public KernelRunner {
   DeviceWord* input(int slot) override { return in_map_[slot]; }
   const DeviceWord* output(int slot) const override { return out_map_[slot]; }
 
-  Status start(int slot, int n_states, bool tau_input) override {
+  Status start(int slot, int n_states, int mode) override {
     return guard("cannot start the kernel", [&] {
       const auto bytes = static_cast<std::size_t>(n_states) * static_cast<std::size_t>(AxiLayout::in_words(nv_)) *
                          sizeof(DeviceWord);
@@ -78,7 +78,7 @@ class XrtRunner final : public KernelRunner {
       run.set_arg(kIn, in_[slot]);
       run.set_arg(kOut, out_[slot]);
       run.set_arg(kNStates, n_states);
-      run.set_arg(kTauInput, tau_input ? 1 : 0);
+      run.set_arg(kMode, mode);
       run.start();
       started_[slot] = n_states;
     });

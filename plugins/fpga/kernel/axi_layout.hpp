@@ -17,6 +17,9 @@ using DeviceWord = std::int32_t;
 inline constexpr int kDeviceMaxNv = 32;  // the largest model one bitstream takes
 inline constexpr DeviceWord kStatusOk = 0x52420000;  // "RB" in the high half
 inline constexpr DeviceWord kStatusOverflow = kStatusOk | 1;
+// The top function's `mode` bits: u holds tau (else qdd); the d/dq or d/dqd datapaths bypassed (a
+// scene that does not need those columns: their output words are written as 0).
+inline constexpr int kModeTauInput = 1, kModeNoDq = 2, kModeNoDqd = 4;
 
 struct AxiLayout {
   static constexpr int kWordsPerJoint = 2 + 9 + 3 + 36;

@@ -29,6 +29,19 @@
 
 namespace rbdgrad::fpga {
 
+// The column sets of the gradient, as a scene asks for them: which datapaths run.
+inline constexpr unsigned kColumnsDq = 1, kColumnsDqd = 2;
+
+// The columns [begin, end) of dc/du (q then qd, n each) that `columns` selects: a contiguous range,
+// so that the loops over them get shorter (fewer iterations of the unrolled datapaths on the card,
+// less work in C simulation) instead of idling.
+struct ColumnRange {
+  int begin, end;
+  ColumnRange(unsigned columns, int n)
+      : begin((columns & kColumnsDq) ? 0 : n),
+        end((columns & kColumnsDqd) ? 2 * n : ((columns & kColumnsDq) ? n : 0)) {}
+};
+
 // The robot as the kernel sees it (constants of the bitstream on hardware): topology, each joint's
 // fixed transform from its parent's frame, and each body's spatial inertia in its own frame.
 template <class T, int MaxNv>
@@ -226,14 +239,17 @@ void joint_transforms(const RobotConstants<T, MaxNv>& robot, const T* q, const T
 // RNEA at (q, qd, qdd) with its gradient columns fused into the same forward sweep (Algorithm 5,
 // lines 1-4), then the backward sweep of forces and their derivatives (lines 5-7). Leaves tau in
 // `tau` and dc/du in s.dc.
+// columns: which datapaths run (kColumnsDq: the d/dq columns, kColumnsDqd: the d/dqd columns); the
+// others are skipped (ColumnRange) and their s.dc columns left as they were.
 template <class T, int MaxNv>
 void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* qdd, KernelState<T, MaxNv>& s,
-                   T* tau) {
+                   T* tau, unsigned columns = kColumnsDq | kColumnsDqd) {
   using namespace detail;
   const int n = robot.nv;
   const T zero(0);
   const T a_gravity[6] = {zero, zero, zero, -robot.gravity[0], -robot.gravity[1], -robot.gravity[2]};
   const T v_world[6] = {zero, zero, zero, zero, zero, zero};
+  const ColumnRange cols(columns, n);
 
   // forward sweep
   for (int i = 0; i < n; ++i) {
@@ -257,8 +273,8 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
     cross_force(s.v[i], s.h[i], vxh);
     for (int k = 0; k < 6; ++k) s.f[i][k] = Ia[k] + vxh[k];
 
-    // the columns of the derivatives: one datapath each
-    for (int j = 0; j < 2 * n; ++j) {
+    // the columns of the derivatives: one datapath each, those `columns` selects
+    for (int j = cols.begin; j < cols.end; ++j) {
       RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
       const bool wrt_q = j < n;
       const int joint = wrt_q ? j : j - n;
@@ -303,7 +319,7 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
     const int par = robot.parent[i];
     const bool pr = robot.prismatic[i];
     tau[i] = along_S(s.f[i], pr);
-    for (int j = 0; j < 2 * n; ++j) {
+    for (int j = cols.begin; j < cols.end; ++j) {
       RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
       s.dc[i][j] = along_S(s.df[i][j], pr);
       if (par < 0) continue;
@@ -327,11 +343,13 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
 }
 
 // The whole gradient of one state: qdd (from tau through M^-1, or given), then dc/du at it, then
-// dqdd/du = -M^-1 dc/du. Outputs row-major nv x nv; qdd_out receives the qdd used.
+// dqdd/du = -M^-1 dc/du. Outputs row-major nv x nv; qdd_out receives the qdd used. `columns` says
+// which of dqdd_dq and dqdd_dqd are computed (a scene's skips: the other datapaths are bypassed and
+// their output left as it was).
 template <class T, int MaxNv>
 void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin_q, const T* cos_q, const T* qd,
                  const T* u, bool tau_input, const T* minv, KernelState<T, MaxNv>& s, T* qdd_out, T* dqdd_dq,
-                 T* dqdd_dqd) {
+                 T* dqdd_dqd, unsigned columns = kColumnsDq | kColumnsDqd) {
   const int n = robot.nv;
   joint_transforms(robot, q, sin_q, cos_q, s);
   T tau[MaxNv];
@@ -339,16 +357,18 @@ void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin
     // c = RNEA(q, qd, 0), qdd = M^-1 (tau - c)
     T zeros[MaxNv];
     for (int i = 0; i < n; ++i) zeros[i] = T(0);
-    rnea_gradient(robot, qd, zeros, s, tau);
+    // the bias c alone: its derivative columns would be overwritten below
+    rnea_gradient(robot, qd, zeros, s, tau, 0u);
     T bias[MaxNv];
     for (int k = 0; k < n; ++k) bias[k] = u[k] - tau[k];
     for (int i = 0; i < n; ++i) qdd_out[i] = detail::WideDot<T>::dot(minv + i * n, bias, n, 1);
   } else {
     for (int i = 0; i < n; ++i) qdd_out[i] = u[i];
   }
-  rnea_gradient(robot, qd, qdd_out, s, tau);
+  rnea_gradient(robot, qd, qdd_out, s, tau, columns);
   // -M^-1 dc/du, one column per datapath
-  for (int j = 0; j < 2 * n; ++j) {
+  const ColumnRange cols(columns, n);
+  for (int j = cols.begin; j < cols.end; ++j) {
     RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
     T* out = j < n ? dqdd_dq : dqdd_dqd;
     const int col = j < n ? j : j - n;

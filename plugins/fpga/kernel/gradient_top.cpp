@@ -28,19 +28,21 @@ void read_robot(const DeviceWord* w, RobotConstants<DeviceScalar, kDeviceMaxNv>&
 }  // namespace rbdgrad::fpga
 
 extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_words, const rbdgrad::fpga::DeviceWord* in,
-                                      rbdgrad::fpga::DeviceWord* out, int n_states, int tau_input) {
+                                      rbdgrad::fpga::DeviceWord* out, int n_states, int mode) {
   using namespace rbdgrad::fpga;
   RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = robot_words offset = slave bundle = gmem0)
   RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = in offset = slave bundle = gmem0)
   RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = out offset = slave bundle = gmem1)
   RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = n_states)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = tau_input)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = mode)
   RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = return)
   // on-chip for the whole batch (static: BRAM on hardware, and off the stack in C simulation)
   static RobotConstants<DeviceScalar, kDeviceMaxNv> robot;
   static KernelState<DeviceScalar, kDeviceMaxNv> state;
   read_robot(robot_words, robot);
   const int n = robot.nv;
+  const bool tau_input = (mode & kModeTauInput) != 0;
+  const unsigned columns = ((mode & kModeNoDq) ? 0u : kColumnsDq) | ((mode & kModeNoDqd) ? 0u : kColumnsDqd);
   for (int k = 0; k < n_states; ++k) {
     const DeviceWord* w = in + static_cast<long>(k) * AxiLayout::in_words(n);
     DeviceWord* o = out + static_cast<long>(k) * AxiLayout::out_words(n);
@@ -60,11 +62,11 @@ extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_wor
     // every stored value with the format's bounds (docs/fpga.md, "Overflow is never silent"),
     // which is designed but waits for synthesis.
     const rbdgrad::FixedOverflowScope scope;
-    fd_gradient(robot, q, s, c, qd, u, tau_input != 0, minv, state, qdd, dq, dqd);
+    fd_gradient(robot, q, s, c, qd, u, tau_input, minv, state, qdd, dq, dqd, columns);
     for (int i = 0; i < n; ++i) o[i] = qdd[i].raw();
     for (int e = 0; e < n * n; ++e) {
-      o[n + e] = dq[e].raw();
-      o[n + n * n + e] = dqd[e].raw();
+      o[n + e] = (columns & kColumnsDq) ? dq[e].raw() : 0;
+      o[n + n * n + e] = (columns & kColumnsDqd) ? dqd[e].raw() : 0;
     }
     o[n + 2 * n * n] = scope.overflowed() ? kStatusOverflow : kStatusOk;
   }

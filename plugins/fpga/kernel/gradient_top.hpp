@@ -9,8 +9,9 @@ extern "C" {
 /// \param robot AxiLayout::robot_words(nv) words.
 /// \param in n_states x AxiLayout::in_words(nv) words.
 /// \param out n_states x AxiLayout::out_words(nv) words.
-/// \param tau_input 1: u holds tau (qdd = M^-1 (tau - c)), 0: u holds qdd.
+/// \param mode kModeTauInput: u holds tau (qdd = M^-1 (tau - c)), else qdd; kModeNoDq, kModeNoDqd:
+///             the d/dq or d/dqd columns are not computed (their words are 0).
 /// Not reentrant: its on-chip memory is static, as on hardware, so one call runs at a time.
 void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot, const rbdgrad::fpga::DeviceWord* in,
-                           rbdgrad::fpga::DeviceWord* out, int n_states, int tau_input);
+                           rbdgrad::fpga::DeviceWord* out, int n_states, int mode);
 }

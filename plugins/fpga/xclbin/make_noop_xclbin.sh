@@ -3,7 +3,7 @@
 #
 # Writes a metadata-only xclbin describing the one kernel rbdgrad_fpga_gradient (a compute unit
 # rbdgrad_fpga_gradient_1, arguments robot_words/in on bank0 (gmem0), out on bank1 (gmem1),
-# n_states and tau_input as scalars). It is for exercising the FPGA plugin's XRT host path under
+# n_states and mode as scalars). It is for exercising the FPGA plugin's XRT host path under
 # XRT's noop shim (XCL_EMULATION_MODE=noop): with it, device.load_xclbin, xrt::kernel, group_id,
 # xrt::bo, sync, kernel start/wait and xrt::run reuse all run against Debian's XRT 2.13 without a
 # device. It contains NO bitstream and no emulation model: it is not a hardware xclbin, nothing

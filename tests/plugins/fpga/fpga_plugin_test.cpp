@@ -244,6 +244,33 @@ TEST(FpgaPluginCompute, BatchesEqualTheTopFunctionStateByStateInEveryChunking) {
   }
 }
 
+// A scene that needs d qdd/d q only (issue 8, a plan with that output): the d/dqd datapaths are
+// bypassed, and what is computed equals the full batch's bits.
+TEST(FpgaPluginCompute, AScenesSkippedColumnsAreBypassed) {
+  const Model model = load_embedded("hyq");
+  plugin::ModelDesc desc(model);
+  desc.set_plan(RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ, false, {});
+  InstancePtr scene = csim_instance(desc);
+  ASSERT_TRUE(scene);
+  InstancePtr full = csim_instance(plugin::ModelDesc(model));
+  ASSERT_TRUE(full);
+  const BatchArrays<std::int32_t> reference = reference_batch("hyq", model.nv, true);
+  BatchArrays<std::int32_t> a = reference, b = reference;
+  rbdgrad_batch only_dq = a.batch(RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU,
+                                  RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ, false, false);
+  ASSERT_FALSE(take(api(), api()->compute(scene.get(), &only_dq)));
+  rbdgrad_batch everything = b.batch(RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, kGradient, false, false);
+  ASSERT_FALSE(take(api(), api()->compute(full.get(), &everything)));
+  EXPECT_EQ(a.out(RBDGRAD_OUTPUT_QDD), b.out(RBDGRAD_OUTPUT_QDD));
+  EXPECT_EQ(a.out(RBDGRAD_OUTPUT_DQDD_DQ), b.out(RBDGRAD_OUTPUT_DQDD_DQ));
+  for (std::int32_t x : a.out(RBDGRAD_OUTPUT_DQDD_DQD)) ASSERT_EQ(x, 77) << "the bypassed output was written";
+  // outside the plan
+  rbdgrad_batch outside = a.batch(RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, kGradient, false, false);
+  const auto e = take(api(), api()->compute(scene.get(), &outside));
+  ASSERT_TRUE(e);
+  EXPECT_THAT(e->message, HasSubstr("outside the instance's plan"));
+}
+
 // States built to overflow (300 rad/s on every joint) are flagged alone; the MINV output is the
 // core's M^-1 rounded to Q16.16, and a caller's M^-1 is used.
 TEST(FpgaPluginCompute, OverflowIsFlaggedPerStateAndMinvIsTheHosts) {

@@ -102,6 +102,48 @@ TEST(GradientTop, MatchesTheKernelBitForBit) {
     for (const bool tau_input : {false, true}) check_robot(robot, tau_input);
 }
 
+// A scene's skips (issue 8): with the d/dq or d/dqd datapaths bypassed (mode kModeNoDq,
+// kModeNoDqd), the other columns and qdd are the full kernel's bits, the bypassed columns' words 0.
+TEST(GradientTop, BypassedColumnsLeaveTheOthersBitForBit) {
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    const Model model = testing::load_embedded(robot);
+    const io::StateFile file = reference(robot);
+    const int n = model.nv;
+    std::vector<DeviceWord> robot_words, in;
+    std::string error;
+    ASSERT_TRUE(pack_robot(model, robot_words, error)) << error;
+    int states = 0;
+    for (const io::StateRecord& r : file.states)
+      states += pack_state(n, r.at("q").data(), r.at("qd").data(), r.at("tau").data(), r.at("Minv").data(), in, error);
+    ASSERT_GT(states, 0);
+    const auto run = [&](int mode) {
+      std::vector<DeviceWord> out(static_cast<std::size_t>(states * AxiLayout::out_words(n)), -1);
+      rbdgrad_fpga_gradient(robot_words.data(), in.data(), out.data(), states, mode);
+      return out;
+    };
+    const std::vector<DeviceWord> full = run(kModeTauInput);
+    const std::vector<DeviceWord> no_dqd = run(kModeTauInput | kModeNoDqd), no_dq = run(kModeTauInput | kModeNoDq);
+    for (int k = 0; k < states; ++k) {
+      const std::size_t o = static_cast<std::size_t>(k * AxiLayout::out_words(n));
+      for (int i = 0; i < n; ++i) {
+        ASSERT_EQ(no_dqd[o + i], full[o + i]) << robot << " state " << k << " qdd " << i;
+        ASSERT_EQ(no_dq[o + i], full[o + i]) << robot << " state " << k << " qdd " << i;
+      }
+      for (int e = 0; e < n * n; ++e) {
+        ASSERT_EQ(no_dqd[o + n + e], full[o + n + e]) << robot << " state " << k << " d qdd/d q " << e;
+        ASSERT_EQ(no_dqd[o + n + n * n + e], 0) << robot << " state " << k << " bypassed d qdd/d qd " << e;
+        ASSERT_EQ(no_dq[o + n + n * n + e], full[o + n + n * n + e]) << robot << " state " << k << " d qdd/d qd " << e;
+        ASSERT_EQ(no_dq[o + n + e], 0) << robot << " state " << k << " bypassed d qdd/d q " << e;
+      }
+      // a state the full kernel keeps in range stays in range with fewer datapaths
+      if (full[o + n + 2 * n * n] == kStatusOk) {
+        EXPECT_EQ(no_dqd[o + n + 2 * n * n], kStatusOk) << robot << " state " << k;
+        EXPECT_EQ(no_dq[o + n + 2 * n * n], kStatusOk) << robot << " state " << k;
+      }
+    }
+  }
+}
+
 TEST(GradientTop, PackingRefusesWhatDoesNotFit) {
   const Model model = testing::load_embedded("iiwa14");
   std::vector<DeviceWord> words;
