@@ -164,6 +164,12 @@ Kernel f32_arithmetic() {
 }
 // the defaults with every batch on mapped memory (no device copies; a pinned caller's arrays are
 // the kernel's own inputs and outputs)
+// the defaults without CUDA Graphs (every launch a stream call)
+Kernel no_graphs() {
+  Kernel k{"nograph", {}};
+  k.options.graphs = false;
+  return k;
+}
 Kernel mapped_io() {
   Kernel k{"mapped", {}};
   k.options.mapped_io_max_kib = std::size_t{1} << 30;
@@ -213,6 +219,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
     }
     benchmark::ClobberMemory();
   }
+  const bool graph_used = instance->last_used_graph();  // before the timed calls, which never use one
   // the kernel alone, from CUDA events, in calls of their own: the events cost the end-to-end
   // time two runtime calls, which the plugin makes only when asked (time_kernel)
   rbdgrad::cuda::KernelOptions timed = kernel.options;
@@ -233,6 +240,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
   state.counters["f32_in_f64"] = instance->last_computed_f32_in_f64() ? 1 : 0;
   state.counters["chunks"] = static_cast<double>(instance->last_chunks());
+  state.counters["graph"] = graph_used ? 1 : 0;
   state.counters["mapped_io"] = instance->last_used_mapped_io() ? 1 : 0;
   state.counters["pinned_arrays"] = instance->last_pinned_arrays();
   state.counters["states_per_s"] =
@@ -256,8 +264,8 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
 // of the robot's, the block kernel with copies at every size, and the one-thread kernel;
 // cuda_shape: the block kernel's shapes at a few sizes, to choose the default by measurement.
 const bool registered = [] {
-  const Kernel kernels[] = {default_kernel(),     timed_kernel(),  generic_kernel(),
-                            block_kernel(false), thread_kernel(), f32_arithmetic()};
+  const Kernel kernels[] = {default_kernel(), timed_kernel(),   generic_kernel(), block_kernel(false),
+                            thread_kernel(),  f32_arithmetic(), no_graphs()};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const Kernel& kernel : kernels)
       for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {

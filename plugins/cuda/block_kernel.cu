@@ -28,6 +28,23 @@ cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<IO
   return cudaGetLastError();
 }
 
+template <class S, class IO>
+KernelLaunch block_fused_launch(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape) {
+  const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
+  KernelLaunch l;
+  l.function = reinterpret_cast<const void*>(block_fused_kernel<S, ModelView<S>, IO>);
+  l.grid = dim3(static_cast<unsigned>((batch.n + per_block - 1) / per_block));
+  l.block = dim3(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
+  l.shared_bytes = block_shared_bytes<S>(model.nv, batch.tau_input, shape);
+  return l;
+}
+
+template KernelLaunch block_fused_launch<double, double>(const ModelView<double>&, const BatchPointers<double>&,
+                                                         const BlockShape&);
+template KernelLaunch block_fused_launch<float, float>(const ModelView<float>&, const BatchPointers<float>&,
+                                                       const BlockShape&);
+template KernelLaunch block_fused_launch<double, float>(const ModelView<double>&, const BatchPointers<float>&,
+                                                        const BlockShape&);
 template cudaError_t allow_block_shared_bytes<double, double>(std::size_t);
 template cudaError_t allow_block_shared_bytes<float, float>(std::size_t);
 template cudaError_t allow_block_shared_bytes<double, float>(std::size_t);

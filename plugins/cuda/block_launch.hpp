@@ -60,4 +60,16 @@ template <class S, class IO>
 cudaError_t launch_block_fused(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                                cudaStream_t stream);
 
+/// One launch of a block kernel, for launching it by other means than a stream call (a CUDA
+/// Graph's kernel node, kernel_graphs.hpp): the kernel, its grid and block, its shared memory.
+/// Its arguments are the model view and the batch pointers, in that order.
+struct KernelLaunch {
+  const void* function = nullptr;
+  dim3 grid, block;
+  std::size_t shared_bytes = 0;
+};
+/// The launch launch_block_fused would make.
+template <class S, class IO>
+KernelLaunch block_fused_launch(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape);
+
 }  // namespace rbdgrad::cuda

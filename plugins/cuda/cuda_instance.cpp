@@ -224,6 +224,24 @@ int CudaInstance::block_stages() const {
          (plan_->minv_supplied ? block_stages::kMinvSupplied : 0);
 }
 
+template <class C, class S>
+cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape,
+                                             cudaStream_t stream) {
+  KernelLaunch launch;
+  const SpecializedBlockKernel* specific = specialized<C, S>();
+  if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
+    launch = block_fused_launch<C, S>(view<C>(), batch, shape);
+  ModelView<C> model_arg = view<C>();
+  BatchPointers<S> batch_arg = batch;
+  void* args[] = {&model_arg, &batch_arg};
+  if (graphs_.launch(launch, args, stream) == cudaSuccess) {
+    last_graph_ = true;
+    return cudaSuccess;
+  }
+  cudaGetLastError();  // the graph failed: the usual launch
+  return launch_block<C, S>(batch, shape, stream);
+}
+
 Status CudaInstance::specialize(const std::string& cache_dir) {
   if (Status s = cuda_status(cudaSetDevice(device_), "cudaSetDevice(" + std::to_string(device_) + ")"); !s) return s;
   Status first = Status::ok();
@@ -340,6 +358,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   whole.minv = static_cast<const S*>(b.minv);
   const bool wide = std::is_same_v<S, float> && f32_in_f64() && use_block_kernel<double>(whole, n);
   const bool block = wide || use_block_kernel<S>(whole, n);
+  last_graph_ = false;
   // the one-thread kernels of a batch share the workspace's slots: whole passes over them per chunk
   const std::size_t chunk = mapped ? n : chunk_states(n, block ? n : slots_, kernel_.chunks, model_.nv);
   const std::size_t chunks = (n + chunk - 1) / chunk;
@@ -412,9 +431,13 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     if (e == cudaSuccess && c == 0 && kernel_.time_kernel) e = cudaEventRecord(kernel_start_, stream);
     else if (e == cudaSuccess && c > 0 && !block) e = cudaStreamWaitEvent(stream, kernel_end_[c - 1], 0);
     if (Status s = cuda_status(e, "ordering the kernels"); !s) return fail(s);
-    const cudaError_t launched = !block ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
-                                 : wide ? launch_block<double>(p, shape, stream)
-                                        : launch_block<S>(p, shape, stream);
+    // one launch and no copies: as a CUDA Graph, which costs the host less (kernel_graphs.hpp)
+    const bool graph = block && kernel_.graphs && mapped && !pipelined && !kernel_.time_kernel;
+    const cudaError_t launched = !block  ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
+                                 : graph ? (wide ? launch_block_graph<double>(p, shape, stream)
+                                                 : launch_block_graph<S>(p, shape, stream))
+                                 : wide  ? launch_block<double>(p, shape, stream)
+                                         : launch_block<S>(p, shape, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     // each runtime call costs about a microsecond of a small batch's time: only the events used
     if (pipelined || kernel_.time_kernel)

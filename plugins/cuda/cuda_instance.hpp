@@ -21,6 +21,7 @@
 #include "common/batch_plan.hpp"
 #include "device/fused_state.hpp"
 #include "device_memory.hpp"
+#include "kernel_graphs.hpp"
 #include "specialized_kernel.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -103,6 +104,8 @@ struct KernelOptions {
   bool robot_specific = true;
   // CUDA events around the kernels, for last_kernel_ms (benchmarks): two more calls per batch
   bool time_kernel = false;
+  // a batch of one block-kernel launch without copies goes as a CUDA Graph (kernel_graphs.hpp)
+  bool graphs = true;
   ChunkRule chunks;
   F32Compute f32_compute = F32Compute::kAuto;
 };
@@ -162,6 +165,8 @@ class CudaInstance {
   bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many chunks the last successful compute() went in (chunk_states).
   std::size_t last_chunks() const { return last_chunks_; }
+  /// Whether the last successful compute() launched its kernel as a CUDA Graph.
+  bool last_used_graph() const { return last_graph_; }
   /// Whether the last successful compute() was an f32 batch computed in f64 (F32Compute).
   bool last_computed_f32_in_f64() const { return last_f32_in_f64_; }
   /// Whether f32 gradient batches compute in f64 with the current options on this GPU.
@@ -188,6 +193,9 @@ class CudaInstance {
   template <class C, class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
   template <class C, class S>
   cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, cudaStream_t stream) const;
+  // the same as a CUDA Graph (graphs_), else as launch_block
+  template <class C, class S>
+  cudaError_t launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
@@ -216,6 +224,8 @@ class CudaInstance {
   bool last_mapped_ = false;
   bool last_specific_ = false;
   bool last_f32_in_f64_ = false;
+  bool last_graph_ = false;
+  KernelGraphs graphs_;
   std::size_t last_chunks_ = 0;
   bool fast_f64_ = false;  // the GPU's f64 rate is at least half its f32 rate (F32Compute)
   std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_, specialized_f64_for_f32_;

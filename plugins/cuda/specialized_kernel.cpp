@@ -87,6 +87,30 @@ cudaError_t SpecializedBlockKernel::launch(const ModelView<S>& model, const Batc
                           block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream);
 }
 
+template <class S, class IO>
+bool SpecializedBlockKernel::launch_config(const ModelView<S>& model, const BatchPointers<IO>& batch,
+                                           const BlockShape& shape, KernelLaunch& out) const {
+  const KernelScalars built_for = std::is_same_v<S, float>  ? KernelScalars::kF32
+                                  : std::is_same_v<IO, float> ? KernelScalars::kF64ForF32
+                                                              : KernelScalars::kF64;
+  if (scalars_ != built_for) return false;
+  const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
+  out.function = reinterpret_cast<const void*>(kernel_);
+  out.grid = dim3(static_cast<unsigned>((batch.n + per_block - 1) / per_block));
+  out.block = dim3(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
+  out.shared_bytes = block_shared_bytes<S>(model.nv, batch.tau_input, shape);
+  return true;
+}
+
+template bool SpecializedBlockKernel::launch_config<double, double>(const ModelView<double>&,
+                                                                    const BatchPointers<double>&, const BlockShape&,
+                                                                    KernelLaunch&) const;
+template bool SpecializedBlockKernel::launch_config<float, float>(const ModelView<float>&, const BatchPointers<float>&,
+                                                                  const BlockShape&, KernelLaunch&) const;
+template bool SpecializedBlockKernel::launch_config<double, float>(const ModelView<double>&,
+                                                                   const BatchPointers<float>&, const BlockShape&,
+                                                                   KernelLaunch&) const;
+
 template cudaError_t SpecializedBlockKernel::launch<double, double>(const ModelView<double>&,
                                                                     const BatchPointers<double>&, const BlockShape&,
                                                                     cudaStream_t) const;

@@ -35,6 +35,12 @@ class SpecializedBlockKernel {
   cudaError_t launch(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      cudaStream_t stream) const;
 
+  /// The launch launch() would make, for a CUDA Graph's kernel node; false when S and IO are not
+  /// those the kernel was built for.
+  template <class S, class IO>
+  bool launch_config(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
+                     KernelLaunch& out) const;
+
   KernelOrigin origin() const { return origin_; }
   /// Seconds spent compiling (0 from a cache) and loading.
   double seconds() const { return seconds_; }

@@ -38,6 +38,47 @@ rbdgrad_batch batch_of(testing::BatchArrays<S>& a, std::uint32_t outputs) {
                  false, false);
 }
 
+// A batch of one block-kernel launch without copies goes as a CUDA Graph (kernel_graphs.hpp), whose
+// kernel node takes each call's arrays and size: the same bits as the stream launch, call after
+// call with different batches; with copies, or with graphs off, a stream launch.
+TEST(CudaKernelChoice, SmallMappedBatchesLaunchAsAGraph) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::unique_ptr<CudaInstance> with_graphs, without;
+  if (Status s = CudaInstance::create(model, 0, with_graphs); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  ASSERT_TRUE(CudaInstance::create(model, 0, without));
+  (void)with_graphs->specialize("");
+  (void)without->specialize("");
+  KernelOptions off;
+  off.graphs = false;
+  ASSERT_TRUE(without->set_kernel_options(off));
+  const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (const std::size_t n : {7u, 33u, 1u, 200u}) {
+    auto a = equal_states(model.nv, n), b = equal_states(model.nv, n);
+    for (std::vector<double>* v : {&a.q, &a.qd, &a.u})
+      for (double& x : *v) x = u(rng);
+    b.q = a.q;
+    b.qd = a.qd;
+    b.u = a.u;
+    rbdgrad_batch x = batch_of(a, gradient), y = batch_of(b, gradient);
+    ASSERT_TRUE(with_graphs->compute(&x));
+    EXPECT_TRUE(with_graphs->last_used_mapped_io()) << n;
+    EXPECT_TRUE(with_graphs->last_used_graph()) << n;
+    ASSERT_TRUE(without->compute(&y));
+    EXPECT_FALSE(without->last_used_graph()) << n;
+    for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD})
+      ASSERT_EQ(a.out(flag), b.out(flag)) << "n = " << n << ", output " << flag;
+  }
+  KernelOptions copies;
+  copies.mapped_io_max_kib = copies.mapped_pinned_max_kib = 0;
+  ASSERT_TRUE(with_graphs->set_kernel_options(copies));
+  auto c = equal_states(model.nv, 16);
+  rbdgrad_batch z = batch_of(c, gradient);
+  ASSERT_TRUE(with_graphs->compute(&z));
+  EXPECT_FALSE(with_graphs->last_used_graph()) << "a batch with copies launches on its stream";
+}
+
 TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   const Model model = testing::load_embedded("iiwa14");
   std::unique_ptr<CudaInstance> instance;
