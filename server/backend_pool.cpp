@@ -58,11 +58,12 @@ BackendPool::~BackendPool() = default;
 
 std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const ModelRegistry& models) {
   std::unique_ptr<BackendPool> pool(new BackendPool());
-  const auto load = [&](const std::string& path, const std::map<std::string, std::string>& plugin_options,
-                        std::int64_t instances) {
-    if (Status s = pool->registry_.add(path); !s) {
+  const auto load = [&](const std::string& path, const std::string& name,
+                        const std::map<std::string, std::string>& plugin_options, std::int64_t instances) {
+    if (Status s = pool->registry_.add(path, name); !s) {
       BackendState state;
-      state.name = backend_name_from_path(path);
+      state.kind = backend_name_from_path(path);
+      state.name = name.empty() ? state.kind : name;
       state.path = path;
       state.reason = s.message();
       pool->states_.push_back(std::move(state));
@@ -71,17 +72,19 @@ std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const M
     const std::size_t per_model = instances > 0 ? static_cast<std::size_t>(instances) : options.instances_per_model;
     pool->add_backend(*pool->registry_.available().back(), plugin_options, options, models, per_model);
   };
-  for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.options, plugin.instances);
-  // the built-in CPU backend, unless the configuration brought its own
-  if (!options.cpu_plugin_path.empty() && pool->find("cpu") == nullptr) load(options.cpu_plugin_path, {}, 0);
+  for (const PluginConfig& plugin : options.plugins) load(plugin.path, plugin.name, plugin.options, plugin.instances);
+  // the built-in CPU backend, unless the configuration brought its own (under any name)
+  if (!options.cpu_plugin_path.empty() && !pool->has_kind("cpu")) load(options.cpu_plugin_path, "", {}, 0);
   for (const std::string& path : options.optional_plugin_paths) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) continue;
-    // a configured plugin of that name, loaded or not, is the one the operator asked for
+    // a configured plugin of that kind (or name), loaded or not, is the one the operator asked for
     const std::string name = backend_name_from_path(path);
     const auto& states = pool->states_;
-    if (std::any_of(states.begin(), states.end(), [&](const BackendState& s) { return s.name == name; })) continue;
-    load(path, {}, 0);
+    if (std::any_of(states.begin(), states.end(),
+                    [&](const BackendState& s) { return s.name == name || s.kind == name; }))
+      continue;
+    load(path, "", {}, 0);
   }
   return pool;
 }
@@ -89,14 +92,15 @@ std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const M
 void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
                               const Options& options, const ModelRegistry& models, std::size_t instances_per_model) {
   BackendState state;
-  state.name = plugin.info().name;
+  state.name = plugin.name();
+  state.kind = plugin.info().name;
   state.path = plugin.path();
   state.info = plugin.info();
   state.instances_per_model = std::max<std::size_t>(instances_per_model, 1);
 
   std::map<std::string, std::string> instance_options = configured_options;
   // `workers` sizes the CPU backend unless its own options already do
-  if (state.name == "cpu" && instance_options.count("threads") == 0) {
+  if (state.kind == "cpu" && instance_options.count("threads") == 0) {
     instance_options["threads"] = std::to_string(cpu_threads(options.workers));
   }
   state.options = options_text(instance_options);
@@ -153,6 +157,30 @@ const BackendPool::Backend* BackendPool::find(std::string_view name) const noexc
   return nullptr;
 }
 
+const BackendPool::Backend* BackendPool::find_for(std::string_view name, const ServedModel& model) const noexcept {
+  if (const Backend* b = find(name)) return b;
+  const Backend* first = nullptr;
+  for (const Backend& b : backends_) {
+    if (states_[b.state].kind != name) continue;
+    if (model.index < b.pools.size() && b.pools[model.index] != nullptr) return &b;
+    if (first == nullptr) first = &b;
+  }
+  return first;
+}
+
+bool BackendPool::has_kind(std::string_view kind) const noexcept {
+  return std::any_of(backends_.begin(), backends_.end(),
+                     [&](const Backend& b) { return states_[b.state].kind == kind; });
+}
+
+std::vector<std::string> BackendPool::resolve(std::string_view name) const {
+  if (find(name) != nullptr) return {std::string(name)};
+  std::vector<std::string> out;
+  for (const Backend& b : backends_)
+    if (states_[b.state].kind == name) out.push_back(states_[b.state].name);
+  return out;
+}
+
 InstancePool* BackendPool::pool(std::string_view backend, const ServedModel& model) const {
   const Backend* b = find(backend);
   return b == nullptr || model.index >= b->pools.size() ? nullptr : b->pools[model.index].get();
@@ -167,7 +195,7 @@ Status BackendPool::unavailable_backend(std::string_view name) const {
   std::string why = "not configured";
   // the last attempt under this name says most (a later plugin may have replaced an earlier one)
   for (auto it = states_.rbegin(); it != states_.rend(); ++it) {
-    if (it->name == name && !it->ready) {
+    if ((it->name == name || it->kind == name) && !it->ready) {
       why = it->reason;
       break;
     }
@@ -180,7 +208,7 @@ Status BackendPool::route(const ServedModel& model, std::string_view backend_nam
   const Backend* backend = nullptr;
   if (backend_name.empty()) {
     // automatic: the CPU backend, else whichever backend serves the model
-    backend = find("cpu");
+    backend = find_for("cpu", model);
     if (backend == nullptr || backend->pools[model.index] == nullptr) {
       backend = nullptr;
       for (const Backend& b : backends_) {
@@ -192,7 +220,7 @@ Status BackendPool::route(const ServedModel& model, std::string_view backend_nam
     }
     if (backend == nullptr) return unavailable("no backend is available for model '" + model.name + "'");
   } else {
-    backend = find(backend_name);
+    backend = find_for(backend_name, model);
     if (backend == nullptr) return unavailable_backend(backend_name);
     if (backend->pools[model.index] == nullptr) {
       return unavailable("backend " + std::string(backend_name) + " is not available for model '" + model.name +

@@ -23,8 +23,11 @@ namespace rbdgrad::server {
 
 // The outcome of loading one backend, for the start-up log and GetServerInfo.
 struct BackendState {
-  std::string name;   // the plugin's own name ("cpu", "cuda"); for one that did not load, derived
-                      // from its file name (librbdgrad_cuda.so -> "cuda", see backend_name_from_path)
+  std::string name;   // the backend's name: its plugins entry's `name`, else the plugin's own
+                      // ("cpu", "cuda"); for one that did not load and has no configured name,
+                      // derived from its file name (librbdgrad_cuda.so -> "cuda", backend_name_from_path)
+  std::string kind;   // the plugin's own name (get_info), what hints and the API's enum mean:
+                      // "cuda" for backends cuda0 and cuda1; from the file name when it did not load
   std::string path;   // the shared object
   bool ready = false;  // loaded, and serves at least one model
   std::string reason;  // why not ready; "" when ready
@@ -95,7 +98,8 @@ class BackendPool {
   std::size_t ready_count() const noexcept;
 
   /// Picks the backend and precision for a request on `model`.
-  /// \param backend "cpu", "cuda", "fpga", ... or "" for automatic: cpu when it serves the model,
+  /// \param backend a backend's name ("cuda0"), else a kind ("cuda": the first backend of that
+  ///        kind that serves the model), or "" for automatic: the cpu when it serves the model,
   ///        else the first ready backend that does.
   /// \param precision one rbdgrad_precision flag, or 0 for automatic: f64 when the backend has it,
   ///        else f32, else fixed.
@@ -103,6 +107,10 @@ class BackendPool {
   /// "... for model 'x': <why>"); invalid_argument "backend cuda does not support precision fixed
   /// (it supports f64, f32)".
   Status route(const ServedModel& model, std::string_view backend, std::uint32_t precision, Route& out) const;
+
+  /// The names of the loaded backends that `name` stands for: the backend of that name, else
+  /// every backend of that kind ("cuda" -> cuda0, cuda1), in load order; empty when none.
+  std::vector<std::string> resolve(std::string_view name) const;
 
   /// The pool of the backend named `backend` for `model`, or null when it does not serve it (or
   /// is not loaded). For the scheduler: its load, its instances' own models, calibration.
@@ -124,6 +132,10 @@ class BackendPool {
   void add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
                    const Options& options, const ModelRegistry& models, std::size_t instances_per_model);
   const Backend* find(std::string_view name) const noexcept;
+  // the backend named `name`, else the first of kind `name` that serves `model`, else the first of
+  // that kind; null when none
+  const Backend* find_for(std::string_view name, const ServedModel& model) const noexcept;
+  bool has_kind(std::string_view kind) const noexcept;
   Status unavailable_backend(std::string_view name) const;
 
   PluginRegistry registry_;        // owns the loaded plugins

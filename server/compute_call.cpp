@@ -11,9 +11,11 @@
 #include <grpcpp/impl/codegen/proto_utils.h>
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
+#include <spdlog/spdlog.h>
 
 #include "coalescer.hpp"
 #include "common/batch_view.hpp"
+#include "metrics.hpp"
 #include "proto_enums.hpp"
 
 namespace rbdgrad::server {
@@ -40,7 +42,14 @@ std::uint32_t output_flags(const v1::ComputeRequest& request) {
   return flags;
 }
 
+double millis(ComputeCall::Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
 }  // namespace
+
+std::unique_ptr<Watchdog> ComputeContext::make_watchdog(const Scheduler& scheduler) {
+  if (scheduler.config().backend_timeout_ms == 0) return nullptr;
+  return std::make_unique<Watchdog>([](const std::shared_ptr<CallAttempt>& a) { ComputeCall::expired(a); });
+}
 
 ComputeContext::Admission ComputeContext::admit() noexcept {
   if (stopping_.load(std::memory_order_relaxed)) return Admission::kShuttingDown;
@@ -176,7 +185,7 @@ void ComputeCall::conclude(Step&& step) noexcept {
 
 void ComputeCall::run(PluginInstance& instance) noexcept {
   conclude([&] {
-    const bool answered = run_stage(instance);
+    const bool answered = run_stage(instance, true);
     // free before the answer goes out: the client's next request must not find it busy
     if (answered) release_instance();
     return answered;
@@ -204,7 +213,7 @@ void ComputeCall::submit() {
     return;
   }
   batch_states_ = batch_.num_states();
-  route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+  route_.pool->submit(*this, inline_states(), predicted_us_);
 }
 
 void ComputeCall::PartJob::run(PluginInstance& instance) noexcept {
@@ -260,7 +269,7 @@ bool ComputeCall::rerun_unsplit(const PartJob& failed) {
   }
   // else a state failed, numbered within its share: that backend again on every state says
   // which, and applies the fixed-point fallback where it should
-  route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+  route_.pool->submit(*this, inline_states(), predicted_us_);
   return true;
 }
 
@@ -334,7 +343,148 @@ void ComputeCall::record_refusal(const Status& refusal) const {
   context_->metrics()->record(r);
 }
 
-bool ComputeCall::run_stage(PluginInstance& instance) {
+std::uint64_t ComputeCall::inline_states() const noexcept {
+  // A call on the thread that received it cannot be answered before that thread is back (gRPC
+  // sends a unary answer once its handler has returned): under a bound, device backends' calls go
+  // to their pool's thread, where a hang can be left behind. The CPU backend runs in-process.
+  if (context_->watchdog() != nullptr && route_.backend->kind != "cpu" &&
+      context_->scheduler().backend_timeout_us(predicted_us_) > 0)
+    return std::numeric_limits<std::uint64_t>::max();
+  return batch_.num_states();
+}
+
+bool ComputeCall::compute_batch(PluginInstance& instance, bool watched, Status& computed) {
+  Watchdog* const watchdog = watched ? context_->watchdog() : nullptr;
+  const Scheduler& scheduler = context_->scheduler();
+  const double limit_us = watchdog != nullptr ? scheduler.backend_timeout_us(predicted_us_) : 0;
+  if (limit_us <= 0) {
+    computed = instance.compute(batch_.batch());
+  } else {
+    auto attempt = std::make_shared<CallAttempt>();
+    attempt->call = this;
+    attempt->started = started_;
+    attempt->deadline =
+        started_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::micro>(limit_us));
+    attempt->backend = route_.backend;
+    attempt->scheduler = &scheduler;
+    attempt->batch = batch_.batch();
+    watchdog->add(attempt);
+    computed = instance.compute(attempt->batch);
+    bool late = false;
+    {
+      std::lock_guard lock(attempt->mutex);
+      late = attempt->state == CallAttempt::State::kTimedOut;
+      if (attempt->state == CallAttempt::State::kRunning) attempt->state = CallAttempt::State::kDone;
+    }
+    if (late) {
+      late_result(*attempt, computed);  // the request is another thread's now
+      return false;
+    }
+    watchdog->remove(*attempt);
+  }
+  compute_time_ += Clock::now() - started_;
+  if (computed && scheduler.mark_healthy(*route_.backend))
+    spdlog::info("backend {}: a call succeeded again: no longer suspect, routed to again", route_.backend->name);
+  return true;
+}
+
+void ComputeCall::expired(const std::shared_ptr<CallAttempt>& attempt) noexcept {
+  std::unique_lock lock(attempt->mutex);
+  if (attempt->state != CallAttempt::State::kRunning) return;  // it returned meanwhile
+  // alive: the call waits for its compute, which has not returned (and cannot settle without the lock)
+  ComputeCall& call = *attempt->call;
+  bool rerun = false;
+  try {
+    rerun = call.take_over(*attempt);
+  } catch (const std::exception& e) {
+    spdlog::error("{}cannot move the request off its timed-out backend: {}", call.prefix_, e.what());
+  } catch (...) {
+    spdlog::error("{}cannot move the request off its timed-out backend", call.prefix_);
+  }
+  attempt->state = rerun ? CallAttempt::State::kTimedOut : CallAttempt::State::kWaiting;
+  lock.unlock();
+  if (!rerun) return;
+  // the call is this thread's now; on a pool thread of the next backend (never inline here)
+  InstancePool* const pool = call.route_.pool;
+  pool->submit(call, std::numeric_limits<std::uint64_t>::max(), call.predicted_us_);
+}
+
+bool ComputeCall::take_over(CallAttempt& attempt) {
+  const BackendState& hung = *route_.backend;
+  const Scheduler& scheduler = context_->scheduler();
+  const double ran_ms = millis(Clock::now() - attempt.started);
+  const double limit_ms = millis(attempt.deadline - attempt.started);
+  char text[160];
+  std::snprintf(text, sizeof text, "timed out: still running after %.0f ms (limit %.0f ms, predicted %.0f us)", ran_ms,
+                limit_ms, predicted_us_);
+  const std::string why = hung.name + ": " + text;
+  if (Metrics* m = context_->metrics()) m->record_timeout(hung.name);
+  if (scheduler.mark_suspect(hung))
+    spdlog::warn("backend {}: a call {}: suspect, avoided by routing until a call on it succeeds", hung.name, text);
+
+  // where it runs again: as a failover, without the backends that failed it (hung included)
+  std::vector<std::string> exclude = failed_;
+  exclude.push_back(hung.name);
+  RouteQuery query;
+  query.backend = hint_;
+  std::uint32_t asked = 0;
+  if (precision_flag(request_.precision(), asked)) query.precision = asked;
+  query.n = request_.num_states();
+  query.outputs = output_flags(request_);
+  query.exclude = &exclude;
+  Route next;
+  double predicted = 0;
+  const Status routed = context_->scheduler().route(*model_, query, next, predicted);
+  if (!routed || std::find(exclude.begin(), exclude.end(), next.backend->name) != exclude.end()) {
+    spdlog::warn("{}backend {} {}; no other backend can take the request{}{}: it waits for the call", prefix_,
+                 hung.name, text, routed ? "" : ": ", routed ? "" : routed.message());
+    return false;
+  }
+  if (Status s = next.plugin->can_run(model_->desc.desc(), next.precision, batch_.batch().outputs, query.n); !s) {
+    spdlog::warn("{}backend {} {}; {} cannot take the request ({}): it waits for the call", prefix_, hung.name, text,
+                 next.backend->name, s.message());
+    return false;
+  }
+  // the inputs again, in the next backend's precision, into buffers of their own
+  RequestBatch batch;
+  v1::ComputeResponse fresh;
+  const auto max_states = static_cast<std::uint32_t>(std::min<std::int64_t>(
+      context_->limits().max_states_per_request, std::numeric_limits<std::uint32_t>::max()));
+  if (Status s = RequestBatch::from_request(request_, model_->model.nv, next.precision, max_states, batch, &fresh);
+      !s) {
+    spdlog::warn("{}backend {} {}; cannot prepare it for {} ({}): it waits for the call", prefix_, hung.name, text,
+                 next.backend->name, s.message());
+    return false;
+  }
+  spdlog::warn("{}backend {} {}: the request runs again on {}", prefix_, hung.name, text, next.backend->name);
+  // the hung call may still write into its buffers and its response's tensors: the attempt keeps
+  // them (moves and swaps hand over heap blocks, which stay where they are) until it returns
+  attempt.buffers = std::move(batch_);
+  attempt.response.Swap(&response_);
+  response_.Swap(&fresh);
+  batch_ = std::move(batch);
+  failed_.push_back(hung.name);
+  failovers_.push_back(why);
+  route_ = next;
+  predicted_us_ = predicted;
+  return true;
+}
+
+void ComputeCall::late_result(CallAttempt& attempt, const Status& computed) noexcept {
+  const double ran_ms = millis(Clock::now() - attempt.started);
+  const std::string& name = attempt.backend->name;
+  if (computed) {
+    spdlog::info("backend {}: the call that timed out returned after {:.0f} ms; its result is dropped (the request "
+                 "was answered elsewhere)",
+                 name, ran_ms);
+    if (attempt.scheduler->mark_healthy(*attempt.backend))
+      spdlog::info("backend {}: a call succeeded again: no longer suspect, routed to again", name);
+  } else {
+    spdlog::warn("backend {}: the call that timed out failed after {:.0f} ms: {}", name, ran_ms, computed.message());
+  }
+}
+
+bool ComputeCall::run_stage(PluginInstance& instance, bool watched) {
   if (in_fallback_) {
     const Clock::time_point started = Clock::now();
     const Status computed = instance.compute(fallback_batch_.batch());
@@ -358,15 +508,15 @@ bool ComputeCall::run_stage(PluginInstance& instance) {
                                 " us in the queue, before it was computed");
     return true;
   }
-  Status computed = instance.compute(batch_.batch());
-  compute_time_ += Clock::now() - started_;
+  Status computed;
+  if (!compute_batch(instance, watched, computed)) return false;  // timed out: it goes on elsewhere
   if (computed) {
     finish();
     return true;
   }
   if (prepare_failover(computed)) {
     // run() happens again on the next backend's pool (maybe right here); this run is over
-    route_.pool->submit(*this, batch_.num_states(), predicted_us_);
+    route_.pool->submit(*this, inline_states(), predicted_us_);
     return false;
   }
   bool fallback = false;
@@ -486,14 +636,17 @@ Status ComputeCall::prepare_fallback(const Status& failure, bool& prepared) {
 void ComputeCall::finish() {
   const v1::ScalarType type = request_.output_type();
   batch_.to_response(response_, type);
-  response_.set_backend(backend_enum(route_.backend->name));
+  // the enum says the kind; the name which backend of it (cuda0, cuda1)
+  response_.set_backend(backend_enum(route_.backend->kind));
+  response_.set_backend_name(route_.backend->name);
   response_.set_backend_mode(route_.backend->description.mode);
   for (const std::string& f : failovers_) response_.add_failovers(f);
   response_.set_batch_requests(static_cast<std::uint32_t>(batch_requests_));
   if (split()) {
     for (const PartJob& p : parts_) {
       v1::BatchPart* part = response_.add_parts();
-      part->set_backend(backend_enum(p.part.route.backend->name));
+      part->set_backend(backend_enum(p.part.route.backend->kind));
+      part->set_backend_name(p.part.route.backend->name);
       part->set_first_state(static_cast<std::uint32_t>(p.part.first));
       part->set_num_states(static_cast<std::uint32_t>(p.part.n));
       part->set_compute_us(micros(p.compute));
@@ -515,7 +668,7 @@ void ComputeCall::finish() {
       }
     }
     for (std::uint32_t k : fallback_states_) response_.add_fallback_states(k);
-    response_.set_fallback_backend(backend_enum(fallback_route_.backend->name));
+    response_.set_fallback_backend(backend_enum(fallback_route_.backend->kind));
     response_.set_fallback_precision(precision_enum(fallback_route_.precision));
   }
   v1::Timings* t = response_.mutable_timings();

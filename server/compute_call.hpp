@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -26,6 +27,7 @@
 #include "rbdgrad/v1/dynamics.pb.h"
 #include "request_batch.hpp"
 #include "scheduler.hpp"
+#include "watchdog.hpp"
 
 namespace rbdgrad::server {
 
@@ -48,13 +50,16 @@ class ComputeContext {
         limits_(limits),
         fixed_point_fallback_(std::move(fixed_point_fallback)),
         metrics_(metrics),
-        coalescer_(coalescer) {}
+        coalescer_(coalescer),
+        watchdog_(make_watchdog(scheduler)) {}
 
   const ModelRegistry& models() const noexcept { return models_; }
   const BackendPool& backends() const noexcept { return backends_; }
   const Scheduler& scheduler() const noexcept { return scheduler_; }
   Metrics* metrics() const noexcept { return metrics_; }
   Coalescer* coalescer() const noexcept { return coalescer_; }
+  /// Bounds backend calls (scheduler.backend_timeout_ms); null when that is 0 (off).
+  Watchdog* watchdog() const noexcept { return watchdog_.get(); }
   const LimitsConfig& limits() const noexcept { return limits_; }
   const std::string& fixed_point_fallback() const noexcept { return fixed_point_fallback_; }
 
@@ -76,8 +81,11 @@ class ComputeContext {
   const Scheduler& scheduler_;
   const LimitsConfig limits_;
   const std::string fixed_point_fallback_;
+  static std::unique_ptr<Watchdog> make_watchdog(const Scheduler& scheduler);
+
   Metrics* const metrics_;
   Coalescer* const coalescer_;
+  const std::unique_ptr<Watchdog> watchdog_;
   std::atomic<std::int64_t> in_flight_{0};
   std::atomic<bool> stopping_{false};
 };
@@ -139,6 +147,12 @@ class ComputeCall : public PoolJob {
   /// response_bytes) or the error, with the backend's code and a message naming the request.
   const Status& status() const noexcept { return status_; }
 
+  /// The watchdog's word that `attempt`'s backend call ran past its limit: the backend becomes
+  /// suspect (log, rbdgrad_backend_timeouts_total) and, when another backend can take the request
+  /// (the next best by the scheduler, of the hint's kind when it has one), the request runs there
+  /// and the late result is dropped; else the call goes on and its result stands.
+  static void expired(const std::shared_ptr<CallAttempt>& attempt) noexcept;
+
  protected:
   virtual ~ComputeCall() = default;
 
@@ -169,8 +183,21 @@ class ComputeCall : public PoolJob {
   // After share `failed` failed: the whole request again, alone (true), or the failure stands.
   bool rerun_unsplit(const PartJob& failed);
   bool split() const noexcept { return !parts_.empty() && !unsplit_; }
-  // the body of run() that may throw; false when the call goes on to its fallback run
-  bool run_stage(PluginInstance& instance);
+  // the body of run() that may throw; false when the call goes on to its fallback run, or
+  // elsewhere after a timeout. `watched`: the backend call is bounded by the watchdog.
+  bool run_stage(PluginInstance& instance, bool watched = false);
+  // Computes batch_ on `instance` into `computed` (under the watchdog when `watched` and a limit
+  // applies). false: the call ran past its limit and the request went elsewhere: it may be gone
+  // already, so nothing of it may be touched.
+  bool compute_batch(PluginInstance& instance, bool watched, Status& computed);
+  // The states to submit the primary run as: more than any inline limit when it must not run on
+  // the submitting thread (a bounded call on a device backend), else the batch's.
+  std::uint64_t inline_states() const noexcept;
+  // On the watchdog's thread, while the backend call runs: readies the request for the next
+  // backend (true), its buffers handed to `attempt`; false when no other backend can take it.
+  bool take_over(CallAttempt& attempt);
+  // On the computing thread, after the watchdog took the request away: only `attempt` is touched.
+  static void late_result(CallAttempt& attempt, const Status& computed) noexcept;
   // After the primary run failed with `failure`: when it was routed automatically and the backend
   // failed as a whole, routes it to the next best backend and readies batch_ for it (true); when
   // no backend is left, says so in `failure` (false).

@@ -255,11 +255,21 @@ class Parser {
       const std::string key = "plugins[" + std::to_string(i) + "]";
       const YAML::Node p = node[i];
       if (Status s = require_map(key, p); !s) return s;
-      if (Status s = check_keys(key, p, {"path", "options", "instances"}); !s) return s;
+      if (Status s = check_keys(key, p, {"path", "name", "options", "instances"}); !s) return s;
       PluginConfig plugin;
       if (!p["path"]) return error_at(key, p, "a plugin needs a 'path'");
       if (Status s = get_string(key + ".path", p["path"], plugin.path); !s) return s;
       if (plugin.path.empty()) return error_at(key + ".path", p["path"], "must not be empty");
+      if (p["name"]) {
+        if (Status s = get_string(key + ".name", p["name"], plugin.name); !s) return s;
+        if (!valid_backend_name(plugin.name))
+          return error_at(key + ".name", p["name"],
+                          "'" + plugin.name + "' is not a backend name: 1 to 32 of a-z, 0-9, '_' and '-'");
+        for (const PluginConfig& other : out) {
+          if (other.name == plugin.name)
+            return error_at(key + ".name", p["name"], "'" + plugin.name + "' is already the name of another plugin");
+        }
+      }
       const YAML::Node opts = p["options"];
       if (opts && !opts.IsNull()) {
         if (!opts.IsMap()) return error_at(key + ".options", opts, "expected a string mapping");
@@ -321,7 +331,7 @@ class Parser {
     if (Status s = require_map("scheduler", node); !s) return s;
     if (Status s = check_keys("scheduler", node,
                               {"policy", "small_n", "large_n", "calibrate", "calibration_file", "calibration_sizes",
-                               "preferred_batch_states", "split_min_states"});
+                               "preferred_batch_states", "split_min_states", "backend_timeout_ms"});
         !s)
       return s;
     if (node["policy"]) {
@@ -342,6 +352,12 @@ class Parser {
     if (node["split_min_states"]) {
       if (Status s = get_int("scheduler.split_min_states", node["split_min_states"], 0, kMaxInt32,
                              out.split_min_states);
+          !s)
+        return s;
+    }
+    if (node["backend_timeout_ms"]) {
+      if (Status s = get_int("scheduler.backend_timeout_ms", node["backend_timeout_ms"], -1, kMaxInt32,
+                             out.backend_timeout_ms);
           !s)
         return s;
     }
@@ -546,6 +562,14 @@ Status apply_flag_overrides(const std::vector<std::string>& args, ServerConfig& 
   return Status::ok();
 }
 
+bool valid_backend_name(const std::string& name) noexcept {
+  if (name.empty() || name.size() > 32) return false;
+  for (const char c : name) {
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) return false;
+  }
+  return true;
+}
+
 bool is_loopback_address(const std::string& tcp) {
   std::string host;
   if (!tcp.empty() && tcp.front() == '[') {
@@ -609,7 +633,7 @@ std::string describe(const ServerConfig& cfg) {
   }
   os << "plugins (" << cfg.plugins.size() << ", plus the built-in CPU backend):\n";
   for (const PluginConfig& p : cfg.plugins) {
-    os << "  " << p.path;
+    os << "  " << (p.name.empty() ? "" : p.name + ": ") << p.path;
     for (const auto& [k, v] : p.options) os << " " << k << "=" << v;
     if (p.instances > 0) os << ", " << p.instances << " instances per model";
     os << "\n";
@@ -638,6 +662,10 @@ std::string describe(const ServerConfig& cfg) {
   os << ", split ";
   if (cfg.scheduler.split_min_states > 0) os << "from " << cfg.scheduler.split_min_states << " states";
   else os << "off";
+  os << ", backend timeout ";
+  if (cfg.scheduler.backend_timeout_ms < 0) os << "max(1 s, 20x the prediction)";
+  else if (cfg.scheduler.backend_timeout_ms == 0) os << "off";
+  else os << cfg.scheduler.backend_timeout_ms << " ms";
   os << "\n";
   os << "metrics: " << (cfg.metrics_listen.empty() ? "not served" : "http://" + cfg.metrics_listen + "/metrics") << "\n";
   os << "log_level: " << log_level_name(cfg.log_level) << "\n";

@@ -96,7 +96,7 @@ struct SceneConfig {
 
 // A backend plugin to dlopen(). The CPU backend needs no entry: the daemon looks it up next to its
 // own binary (<prefix>/lib/rbdgrad/librbdgrad_cpu.so installed, build/plugins/cpu in the build
-// tree) unless this list yields a plugin named "cpu". A plugin that fails to load is logged and
+// tree) unless this list yields a plugin of kind "cpu". A plugin that fails to load is logged and
 // skipped, under a name taken from its file name (librbdgrad_cuda.so -> "cuda").
 struct PluginConfig {
   // Path of the shared object. Required. No default.
@@ -107,6 +107,12 @@ struct PluginConfig {
   // (a CUDA instance has its own streams and buffers, so requests on different instances overlap
   // on the GPU). Range [1, 64]; 0 (not set) = 1.
   std::int64_t instances = 0;
+  // The backend's name in routing, logs, metrics and server info: [a-z0-9_-]{1,32}, unique among
+  // the loaded backends (last here, so that {path, options, instances} still initialises the rest). Default "" = the plugin's own name (get_info: "cuda"). Set it to load one
+  // library more than once, e.g. cuda0 and cuda1 with options {device: "0"} and {device: "1"}: each
+  // is a backend of its own (instances, latency models, queue), and a request's backend hint names
+  // the kind (the plugin's own name), so BACKEND_CUDA may go to either.
+  std::string name;
 
   bool operator==(const PluginConfig&) const = default;
 };
@@ -165,6 +171,12 @@ struct SchedulerConfig {
   // CPU) when their latency models and queues predict it finishes at least 10% sooner than on
   // the best backend alone. 0 = never split. Default 4096. Range [0, 2^31-1].
   int64_t split_min_states = 4096;
+  // A backend call (a request computed alone: not a split share or a dynamic batch) that has run
+  // this long is given up: the request runs again on the next best backend that serves its model
+  // and precision (the hung call's result, when it comes, is dropped), and the backend is suspect:
+  // routing avoids it until a call on it succeeds again. Milliseconds; -1 (default) = from the
+  // latency model, max(1 s, 20x the call's prediction); 0 = never. Range [-1, 2^31-1].
+  int64_t backend_timeout_ms = -1;
 
   bool operator==(const SchedulerConfig&) const = default;
 };
@@ -196,7 +208,8 @@ struct ServerConfig {
   // Requests of at most this many states run on the gRPC thread that received them when their
   // backend instance is free and nothing waits for it; larger ones are handed to the instance's
   // thread. Saves a thread hand-off (tens of us) per small request; a gRPC thread is then busy for
-  // the computation. Default 128. Range [0, 2^31-1]; 0 = always hand over.
+  // the computation. Default 128. Range [0, 2^31-1]; 0 = always hand over. Under
+  // scheduler.backend_timeout_ms, only the CPU backend's calls run inline.
   int64_t inline_max_states = 128;
   // The backend that computes again, in its best floating-point precision, the states of a
   // PRECISION_FIXED request that left the Q16.16 range (the response lists them). Default "cpu";
@@ -214,6 +227,9 @@ struct ServerConfig {
 
   bool operator==(const ServerConfig&) const = default;
 };
+
+// true for a backend name a plugin entry may set: 1 to 32 of [a-z0-9_-].
+bool valid_backend_name(const std::string& name) noexcept;
 
 // Reads the YAML file at `path` and applies it on top of `out`'s current values
 // (pass a default-constructed ServerConfig to start from the defaults).

@@ -33,8 +33,9 @@ constexpr std::chrono::milliseconds kCloseGrace{200};
 std::string backend_line(const BackendState& b) {
   std::ostringstream os;
   os << "backend " << b.name << ": ready ";
+  if (b.name != b.kind) os << "(" << b.kind << " plugin) ";
   // the CPU plugin runs the core library inside the daemon's process
-  if (b.name == "cpu") os << "(in-process core library) ";
+  if (b.kind == "cpu") os << "(in-process core library) ";
   // a stand-in says so first: "ready (csim: ...)" must not read as hardware
   if (!b.description.mode.empty()) os << "(" << b.description.mode << ") ";
   if (!b.description.device.empty()) os << "on " << b.description.device << " ";
@@ -128,6 +129,10 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   if (d->backends_->ready_count() == 0) return unavailable("no backend is available: nothing can serve requests");
 
   d->scheduler_ = std::make_unique<Scheduler>(*d->backends_, d->models_, cfg.scheduler);
+  if (cfg.scheduler.backend_timeout_ms != 0)
+    spdlog::info("backend calls are bounded at {}: past it a request runs again on the next best backend",
+                 cfg.scheduler.backend_timeout_ms > 0 ? std::to_string(cfg.scheduler.backend_timeout_ms) + " ms"
+                                                      : std::string("max(1 s, 20x their prediction)"));
   d->scheduler_->calibrate(false, [](const std::string& line) { spdlog::info("{}", line); });
   for (const auto& m : d->models_.models()) {
     std::string text;
@@ -185,7 +190,17 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   return Status::ok();
 }
 
-Daemon::~Daemon() { stop(); }
+Daemon::~Daemon() {
+  stop();
+  // The pools go before the scheduler: a backend call that timed out may still be running on a
+  // pool thread (its request answered elsewhere), and when it returns it tells the scheduler.
+  // What uses the pools goes first: the coalescer hands what it holds to them, the service (and
+  // its watchdog) and the metrics read them.
+  coalescer_.reset();
+  service_.reset();
+  metrics_.reset();
+  backends_.reset();
+}
 
 Status Daemon::start() {
   if (server_) return failed_precondition("the daemon is already serving");

@@ -138,7 +138,7 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
   out.set_version(version);
   for (const BackendState& state : backends.backends()) {
     v1::BackendInfo* info = out.add_backends();
-    info->set_backend(backend_enum(state.name));
+    info->set_backend(backend_enum(state.kind));  // the kind; name says which backend of it
     info->set_name(state.name);
     info->set_ready(state.ready);
     info->set_reason(state.reason);
@@ -153,7 +153,8 @@ v1::GetServerInfoResponse describe_server(const BackendPool& backends, const Lim
   // the backends the API names are always listed, so that a client sees why one is missing
   for (const char* name : {"cpu", "cuda", "fpga"}) {
     const auto& all = backends.backends();
-    if (std::any_of(all.begin(), all.end(), [&](const BackendState& s) { return s.name == name; })) continue;
+    if (std::any_of(all.begin(), all.end(), [&](const BackendState& s) { return s.name == name || s.kind == name; }))
+      continue;
     v1::BackendInfo* info = out.add_backends();
     info->set_backend(backend_enum(name));
     info->set_name(name);
@@ -201,7 +202,10 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
     for (const auto& [n, backend] : scheduler.crossovers(*model, 0, std::uint64_t{1} << 20)) {
       v1::RoutingInfo::Crossover* c = r->add_crossovers();
       c->set_from_n(n);
-      c->set_backend(backend_enum(backend));
+      std::string kind = backend;
+      for (const BackendState& b : backends.backends())
+        if (b.name == backend) kind = b.kind;
+      c->set_backend(backend_enum(kind));
       c->set_backend_name(backend);
     }
     const auto [small_n, large_n] = scheduler.thresholds(*model);

@@ -86,6 +86,10 @@ Status Metrics::create(const std::string& listen, std::function<std::vector<Queu
                        .Name("rbdgrad_failovers_total")
                        .Help("Requests a backend failed as a whole and another one ran")
                        .Register(r);
+  m->timeouts_ = &prometheus::BuildCounter()
+                      .Name("rbdgrad_backend_timeouts_total")
+                      .Help("Backend calls that ran past scheduler.backend_timeout_ms (the backend is then suspect)")
+                      .Register(r);
   m->split_requests_ = &prometheus::BuildCounter()
                             .Name("rbdgrad_split_requests_total")
                             .Help("Requests split across backends (scheduler.split_min_states)")
@@ -163,6 +167,10 @@ void Metrics::record(const RequestRecord& r) {
 
 void Metrics::record_rejection(std::string_view reason) {
   rejected_->Add({{"reason", std::string(reason)}}).Increment();
+}
+
+void Metrics::record_timeout(std::string_view backend) {
+  timeouts_->Add({{"backend", std::string(backend)}}).Increment();
 }
 
 std::string Metrics::text() const {

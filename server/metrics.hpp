@@ -73,6 +73,8 @@ class Metrics {
   /// A call refused before it was looked at, by `reason`: "unauthenticated" (no valid token),
   /// "client_rate", "client_concurrency" (the per-client limits), "max_concurrent_requests".
   void record_rejection(std::string_view reason);
+  /// A backend call that ran past scheduler.backend_timeout_ms (rbdgrad_backend_timeouts_total).
+  void record_timeout(std::string_view backend);
 
   /// The bound HTTP port; 0 when not serving.
   int port() const noexcept { return port_; }
@@ -91,6 +93,7 @@ class Metrics {
   prometheus::Family<prometheus::Counter>* failovers_ = nullptr;
   prometheus::Family<prometheus::Counter>* fallback_states_ = nullptr;
   prometheus::Family<prometheus::Counter>* rejected_ = nullptr;
+  prometheus::Family<prometheus::Counter>* timeouts_ = nullptr;
   prometheus::Counter* split_requests_ = nullptr;
   prometheus::Family<prometheus::Histogram>* queue_ = nullptr;
   prometheus::Family<prometheus::Histogram>* compute_ = nullptr;

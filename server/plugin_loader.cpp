@@ -107,7 +107,7 @@ Status check_table(const rbdgrad_plugin_api& api, const std::string& where) {
 // --- Plugin ---
 
 Plugin::Plugin(std::shared_ptr<const LoadedLibrary> library, PluginInfo info, std::string path)
-    : library_(std::move(library)), info_(std::move(info)), path_(std::move(path)) {}
+    : library_(std::move(library)), info_(std::move(info)), path_(std::move(path)), name_(info_.name) {}
 
 Status Plugin::load(const std::string& path, std::unique_ptr<Plugin>& out) {
   const std::string where = "plugin " + path;
@@ -268,14 +268,17 @@ PluginRegistry PluginRegistry::load(const std::vector<std::string>& paths) {
   return registry;
 }
 
-Status PluginRegistry::add(const std::string& path) {
+Status PluginRegistry::add(const std::string& path, const std::string& name) {
   std::unique_ptr<Plugin> plugin;
   Status status = Plugin::load(path, plugin);
   if (status) {
-    // requests name their backend, so a name must mean one library
-    if (const Plugin* taken = find(plugin->info().name)) {
-      status = failed_precondition("plugin " + path + ": name '" + plugin->info().name +
-                                   "' is already taken by " + taken->path());
+    if (!name.empty()) plugin->name_ = name;
+    // logs, metrics and routing name their backend, so a name must mean one backend
+    if (const Plugin* taken = find(plugin->name())) {
+      status = failed_precondition("plugin " + path + ": name '" + plugin->name() + "' is already taken by " +
+                                   taken->path() + (taken->path() == path ? " (the same library)" : "") +
+                                   ": give each plugins entry of it its own `name:` (e.g. " + plugin->info().name +
+                                   "0, " + plugin->info().name + "1)");
     }
   }
   if (!status) {
@@ -288,7 +291,7 @@ Status PluginRegistry::add(const std::string& path) {
 
 const Plugin* PluginRegistry::find(const std::string& name) const noexcept {
   for (const auto& plugin : available_) {
-    if (plugin->info().name == name) return plugin.get();
+    if (plugin->name() == name) return plugin.get();
   }
   return nullptr;
 }

@@ -20,7 +20,7 @@ class LoadedLibrary;
 
 // What a backend says it can do (get_info), copied so it outlives nothing of the plugin's.
 struct PluginInfo {
-  std::string name;          // "cpu", "cuda", "fpga"; unique within a registry
+  std::string name;          // the plugin's own name, its kind: "cpu", "cuda", "fpga" (get_info)
   std::string version;       // the plugin's own version, "" when it gives none
   uint32_t precisions = 0;   // rbdgrad_precision flags
   uint32_t outputs = 0;      // rbdgrad_output flags
@@ -90,6 +90,9 @@ class Plugin {
 
   const PluginInfo& info() const noexcept { return info_; }
   const std::string& path() const noexcept { return path_; }
+  /// The backend's name: the configured one (PluginConfig::name), else info().name. Unique within
+  /// a registry; one library loaded twice (two GPUs) is two Plugins of the same kind.
+  const std::string& name() const noexcept { return name_; }
 
   /// Whether this backend can run n states of `model` in `precision` with `outputs`
   /// (rbdgrad_output flags): ok, or why not (usually kUnimplemented or kUnavailable).
@@ -103,10 +106,12 @@ class Plugin {
 
  private:
   Plugin(std::shared_ptr<const LoadedLibrary> library, PluginInfo info, std::string path);
+  friend class PluginRegistry;
 
   std::shared_ptr<const LoadedLibrary> library_;
   PluginInfo info_;
   std::string path_;
+  std::string name_;
 };
 
 // A plugin that could not be loaded, kept for logs and GetServerInfo.
@@ -123,14 +128,15 @@ class PluginRegistry {
   /// Loads each path in order (see add).
   static PluginRegistry load(const std::vector<std::string>& paths);
 
-  /// Loads one plugin: available on success, else unavailable with the returned reason. A second
-  /// plugin with a name already taken is unavailable (kFailedPrecondition).
-  Status add(const std::string& path);
+  /// Loads one plugin under `name` ("" = its own, get_info's): available on success, else
+  /// unavailable with the returned reason. A second plugin with a name already taken is
+  /// unavailable (kFailedPrecondition, saying to set `name:`).
+  Status add(const std::string& path, const std::string& name = "");
 
   const std::vector<std::unique_ptr<Plugin>>& available() const noexcept { return available_; }
   const std::vector<UnavailablePlugin>& unavailable() const noexcept { return unavailable_; }
 
-  /// The available plugin named `name` ("cpu"), or nullptr.
+  /// The available plugin named `name` ("cpu", "cuda0": Plugin::name), or nullptr.
   const Plugin* find(const std::string& name) const noexcept;
 
  private:

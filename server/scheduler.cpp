@@ -31,7 +31,40 @@ std::uint32_t precision_on(const BackendState& b, std::uint32_t asked) {
 }  // namespace
 
 Scheduler::Scheduler(const BackendPool& backends, const ModelRegistry& models, SchedulerConfig config)
-    : backends_(backends), models_(models), config_(std::move(config)) {}
+    : backends_(backends),
+      models_(models),
+      config_(std::move(config)),
+      suspect_(new std::atomic<bool>[backends.backends().size()]) {
+  for (std::size_t i = 0; i < backends.backends().size(); ++i) suspect_[i].store(false);
+}
+
+double Scheduler::backend_timeout_us(double predicted_us) const noexcept {
+  if (config_.backend_timeout_ms == 0) return 0;
+  if (config_.backend_timeout_ms > 0) return static_cast<double>(config_.backend_timeout_ms) * 1e3;
+  return std::max(1e6, 20 * predicted_us);
+}
+
+std::atomic<bool>* Scheduler::suspect_flag(const BackendState& backend) const noexcept {
+  const auto& all = backends_.backends();
+  if (all.empty() || &backend < all.data() || &backend >= all.data() + all.size()) return nullptr;
+  return &suspect_[static_cast<std::size_t>(&backend - all.data())];
+}
+
+bool Scheduler::mark_suspect(const BackendState& backend) const noexcept {
+  std::atomic<bool>* flag = suspect_flag(backend);
+  return flag != nullptr && !flag->exchange(true);
+}
+
+bool Scheduler::mark_healthy(const BackendState& backend) const noexcept {
+  std::atomic<bool>* flag = suspect_flag(backend);
+  // a plain load first: the request path pays no write while nothing is suspect
+  return flag != nullptr && flag->load(std::memory_order_relaxed) && flag->exchange(false);
+}
+
+bool Scheduler::suspect(const BackendState& backend) const noexcept {
+  const std::atomic<bool>* flag = suspect_flag(backend);
+  return flag != nullptr && flag->load(std::memory_order_relaxed);
+}
 
 void Scheduler::calibrate(bool remeasure, const std::function<void(const std::string&)>& log) {
   CalibrationTable file;
@@ -114,6 +147,10 @@ std::vector<Scheduler::Candidate> Scheduler::candidates(const ServedModel& model
       continue;
     out.push_back({&backend, precision, pool, table_.find(backend.name, model.name, precision)});
   }
+  // a suspect backend (a call on it timed out) only when no other can take the request
+  const auto is_suspect = [&](const Candidate& x) { return suspect(*x.state); };
+  if (std::any_of(out.begin(), out.end(), is_suspect) && !std::all_of(out.begin(), out.end(), is_suspect))
+    out.erase(std::remove_if(out.begin(), out.end(), is_suspect), out.end());
   return out;
 }
 
@@ -123,9 +160,25 @@ std::string Scheduler::choose_by_threshold(const ServedModel& model, const std::
   const char* want = "cpu";
   if (small_n >= 0 && n <= static_cast<std::uint64_t>(small_n)) want = "fpga";
   else if (large_n >= 0 && n >= static_cast<std::uint64_t>(large_n)) want = "cuda";
+  // a kind: among several backends of it (two GPUs), the cost policy picks
   for (const Candidate& x : c)
-    if (x.state->name == want) return x.state->name;
+    if (x.state->kind == want) return want;
   return "";
+}
+
+std::string Scheduler::choose_by_cost(const std::vector<Candidate>& c, std::string_view kind, std::uint64_t n) const {
+  std::string chosen;
+  double best = std::numeric_limits<double>::infinity();
+  for (const Candidate& x : c) {
+    if (!kind.empty() && x.state->kind != kind) continue;
+    if (x.entry == nullptr || x.entry->latency.empty()) continue;
+    const double t = x.pool->predicted_wait_us() + x.entry->latency.predict_us(n);
+    if (t < best) {
+      best = t;
+      chosen = x.state->name;
+    }
+  }
+  return chosen;
 }
 
 Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route& out, double& predicted_us,
@@ -134,26 +187,56 @@ Status Scheduler::route(const ServedModel& model, const RouteQuery& query, Route
   if (predicted_wait_us != nullptr) *predicted_wait_us = 0;
   std::string chosen(query.backend);
   std::shared_lock lock(mutex_);
-  if (chosen.empty()) {
+  if (!chosen.empty()) {
+    // a hint names a kind ("cuda"), or a backend ("cuda1"): among several of the kind, the one
+    // predicted to finish first (else the first that serves the model: BackendPool's rule)
+    if (backends_.resolve(chosen).size() > 1) {
+      RouteQuery any = query;
+      any.backend = {};
+      const std::vector<Candidate> c = candidates(model, any);
+      if (std::string best = choose_by_cost(c, chosen, query.n); !best.empty()) {
+        chosen = std::move(best);
+      } else {
+        // no latency model: the least busy of the kind (the first on a tie)
+        std::size_t least = std::numeric_limits<std::size_t>::max();
+        std::string pick;
+        for (const Candidate& x : c) {
+          if (x.state->kind != chosen) continue;
+          const PoolLoad load = x.pool->load();
+          if (load.queued + load.running < least) {
+            least = load.queued + load.running;
+            pick = x.state->name;
+          }
+        }
+        if (!pick.empty()) chosen = std::move(pick);
+      }
+    }
+  } else {
     const std::vector<Candidate> c = candidates(model, query);
     if (c.empty() && query.exclude != nullptr && !query.exclude->empty())
       return unavailable("no other backend can take the request");
-    if (config_.policy == "threshold") chosen = choose_by_threshold(model, c, query.n);
-    if (chosen.empty()) {
-      // cost: the earliest predicted completion among the backends with a model
-      double best = std::numeric_limits<double>::infinity();
+    std::string kind;
+    if (config_.policy == "threshold") kind = choose_by_threshold(model, c, query.n);
+    // cost: the earliest predicted completion among the backends (of that kind) with a model
+    chosen = choose_by_cost(c, kind, query.n);
+    if (chosen.empty() && !kind.empty()) {
       for (const Candidate& x : c) {
-        if (x.entry == nullptr || x.entry->latency.empty()) continue;
-        const double t = x.pool->predicted_wait_us() + x.entry->latency.predict_us(query.n);
-        if (t < best) {
-          best = t;
+        if (x.state->kind == kind) {
           chosen = x.state->name;
+          break;
         }
       }
     }
     // no model at all: BackendPool's own rule (the cpu, else the first that serves the model),
     // unless that is a backend that failed already
     if (chosen.empty() && query.exclude != nullptr && !query.exclude->empty()) chosen = c.front().state->name;
+    // nor one that is suspect while another can take the request
+    if (chosen.empty() && !c.empty()) {
+      Route usual;
+      if (backends_.route(model, "", query.precision, usual) && suspect(*usual.backend) &&
+          std::none_of(c.begin(), c.end(), [&](const Candidate& x) { return x.state == usual.backend; }))
+        chosen = c.front().state->name;
+    }
   }
   if (Status s = backends_.route(model, chosen, query.precision, out); !s) return s;
   if (const CalibrationEntry* e = table_.find(out.backend->name, model.name, out.precision))
@@ -292,10 +375,21 @@ std::pair<std::int64_t, std::int64_t> Scheduler::thresholds_locked(const ServedM
   if (small_n >= 0 && large_n >= 0) return {small_n, large_n};
   const auto c = crossovers_locked(model, 0, std::uint64_t{1} << 20);
   std::int64_t derived_small = -1, derived_large = -1;
+  // by kind: cuda0 and cuda1 are both "cuda"
+  const auto kind_of = [&](const std::string& name) -> std::string {
+    for (const BackendState& b : backends_.backends())
+      if (b.name == name) return b.kind;
+    return name;
+  };
   for (std::size_t i = 0; i < c.size(); ++i) {
-    if (c[i].second == "fpga" && derived_small < 0)
-      derived_small = i + 1 < c.size() ? static_cast<std::int64_t>(c[i + 1].first) - 1 : std::int64_t{1} << 20;
-    if (c[i].second == "cuda" && derived_large < 0) derived_large = static_cast<std::int64_t>(c[i].first);
+    const std::string kind = kind_of(c[i].second);
+    if (kind == "fpga" && derived_small < 0) {
+      // the fpga is fastest until the next kind takes over
+      std::size_t j = i + 1;
+      while (j < c.size() && kind_of(c[j].second) == "fpga") ++j;
+      derived_small = j < c.size() ? static_cast<std::int64_t>(c[j].first) - 1 : std::int64_t{1} << 20;
+    }
+    if (kind == "cuda" && derived_large < 0) derived_large = static_cast<std::int64_t>(c[i].first);
   }
   return {small_n >= 0 ? small_n : derived_small, large_n >= 0 ? large_n : derived_large};
 }

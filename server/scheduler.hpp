@@ -4,13 +4,16 @@
 //   queued and running there) plus its latency model at this N; the earliest wins;
 // - threshold: N <= small_n to the fpga, N >= large_n to cuda, the cpu in between (small_n and
 //   large_n from the configuration, or where the latency models cross when not set).
-// A hint pins the backend. An explicit precision is respected exactly (a request for f64 never
+// A hint pins the backend's kind (the plugin's own name: "cuda" is cuda0 and cuda1 of two GPUs;
+// among several, the one predicted to finish first) or, naming one, the backend. An explicit precision is respected exactly (a request for f64 never
 // lands on the fixed-point FPGA); PRECISION_AUTO takes each backend's best. The latency models
 // come from calibration (calibration.hpp), kept in a CalibrationTable and its file.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <shared_mutex>
 #include <string>
 #include <string_view>
@@ -87,6 +90,16 @@ class Scheduler {
   /// candidates), in load order.
   std::vector<Prediction> predictions(const ServedModel& model, const RouteQuery& query) const;
 
+  /// The limit of one backend call predicted to take `predicted_us` (0 = no prediction), in us,
+  /// by scheduler.backend_timeout_ms: as configured, or max(1 s, 20x the prediction); 0 = none.
+  double backend_timeout_us(double predicted_us) const noexcept;
+  /// A backend whose call ran past its limit is suspect: routing (automatic, or a hint that names
+  /// a kind of several backends) avoids it while another backend can take the request, until a
+  /// call on it succeeds again (mark_healthy). Each returns whether the mark changed. Thread-safe.
+  bool mark_suspect(const BackendState& backend) const noexcept;
+  bool mark_healthy(const BackendState& backend) const noexcept;
+  bool suspect(const BackendState& backend) const noexcept;
+
   /// The latency models (a copy: calibration may replace them).
   CalibrationTable table() const;
   const SchedulerConfig& config() const noexcept { return config_; }
@@ -109,16 +122,24 @@ class Scheduler {
   };
   // the backends that could take the request, in load order (mutex_ held shared)
   std::vector<Candidate> candidates(const ServedModel& model, const RouteQuery& query) const;
+  // the kind ("fpga", "cpu", "cuda") the threshold policy wants, when a candidate is of it, else ""
   std::string choose_by_threshold(const ServedModel& model, const std::vector<Candidate>& c, std::uint64_t n) const;
+  // the candidate (of `kind`, "" = any) with a model predicted to finish first; "" when none has one
+  std::string choose_by_cost(const std::vector<Candidate>& c, std::string_view kind, std::uint64_t n) const;
   // crossovers and thresholds with mutex_ already held
   std::vector<std::pair<std::uint64_t, std::string>> crossovers_locked(const ServedModel& model,
                                                                        std::uint32_t precision,
                                                                        std::uint64_t max_n) const;
   std::pair<std::int64_t, std::int64_t> thresholds_locked(const ServedModel& model) const;
 
+  // the flag of `backend` in suspect_, or null for a state that is not the pool's
+  std::atomic<bool>* suspect_flag(const BackendState& backend) const noexcept;
+
   const BackendPool& backends_;
   const ModelRegistry& models_;
   const SchedulerConfig config_;
+  // (backends_.backends()) the suspect marks, by index; lock-free for the request path
+  std::unique_ptr<std::atomic<bool>[]> suspect_;
   mutable std::shared_mutex mutex_;  // guards table_ (calibrate writes it, routing reads)
   CalibrationTable table_;
 };

@@ -66,6 +66,49 @@ TEST_F(BackendPoolTest, LoadsTheConfiguredPluginsAndTheCpuBackendRecordingFailur
   EXPECT_THAT(fpga->reason, StartsWith(std::string("plugin ") + kMissingFpga + ": cannot load"));
 }
 
+// One library under two names (a backend per GPU): two backends of kind "cuda"; a route names
+// either, or the kind (the first that serves the model).
+TEST_F(BackendPoolTest, OneLibraryUnderTwoNamesIsTwoBackendsOfOneKind) {
+  PluginConfig gpu0{FAKE_CUDA_PATH, {{"device", "0"}}};
+  gpu0.name = "cuda0";
+  PluginConfig gpu1{FAKE_CUDA_PATH, {{"device", "1"}}};
+  gpu1.name = "cuda1";
+  gpu1.instances = 2;
+  auto pool = make({gpu0, gpu1, {kMissingFpga, {}, 0, "fpga7"}});
+  ASSERT_EQ(pool->backends().size(), 4u);
+  EXPECT_EQ(pool->ready_count(), 3u);
+  const BackendState* first = state(*pool, "cuda0");
+  const BackendState* second = state(*pool, "cuda1");
+  ASSERT_NE(first, nullptr);
+  ASSERT_NE(second, nullptr);
+  EXPECT_TRUE(first->ready && second->ready);
+  EXPECT_EQ(first->kind, "cuda");
+  EXPECT_EQ(second->kind, "cuda");
+  EXPECT_EQ(second->options, "device=1");
+  EXPECT_EQ(second->instances_per_model, 2u);
+  EXPECT_EQ(state(*pool, "cpu")->kind, "cpu");
+  const BackendState* fpga = state(*pool, "fpga7");  // a configured name, also when it fails
+  ASSERT_NE(fpga, nullptr);
+  EXPECT_EQ(fpga->kind, "fpga");
+  EXPECT_FALSE(fpga->ready);
+
+  const ServedModel& iiwa = *models_.find("iiwa14");
+  EXPECT_NE(pool->pool("cuda0", iiwa), pool->pool("cuda1", iiwa));
+  EXPECT_EQ(pool->pool("cuda", iiwa), nullptr) << "pools go by name";
+  EXPECT_EQ(pool->resolve("cuda"), (std::vector<std::string>{"cuda0", "cuda1"}));
+  EXPECT_EQ(pool->resolve("cuda1"), (std::vector<std::string>{"cuda1"}));
+  EXPECT_TRUE(pool->resolve("fpga").empty());
+  Route route;
+  ASSERT_TRUE(pool->route(iiwa, "cuda1", RBDGRAD_PRECISION_F64, route).is_ok());
+  EXPECT_EQ(route.backend->name, "cuda1");
+  EXPECT_EQ(route.pool->size(), 2u);
+  ASSERT_TRUE(pool->route(iiwa, "cuda", 0, route).is_ok());
+  EXPECT_EQ(route.backend->name, "cuda0");
+  const Status none = pool->route(iiwa, "fpga", 0, route);
+  EXPECT_EQ(none.code(), StatusCode::kUnavailable);
+  EXPECT_THAT(none.message(), HasSubstr("cannot load"));
+}
+
 TEST_F(BackendPoolTest, APluginEntrySetsItsInstancesPerModel) {
   PluginConfig cuda{FAKE_CUDA_PATH, {}};
   cuda.instances = 3;

@@ -211,6 +211,35 @@ TEST(ServerConfigTest, PluginInstancesPerModel) {
   }
 }
 
+TEST(ServerConfigTest, PluginNames) {
+  ServerConfig cfg;
+  Status s = parse_config(
+      "plugins:\n"
+      "  - {path: /opt/rbdgrad/librbdgrad_cuda.so, name: cuda0, options: {device: \"0\"}}\n"
+      "  - {path: /opt/rbdgrad/librbdgrad_cuda.so, name: cuda_1-b, options: {device: \"1\"}}\n"
+      "  - {path: /opt/rbdgrad/librbdgrad_fpga.so}\n",
+      "t", cfg);
+  ASSERT_TRUE(s.is_ok()) << s.to_string();
+  ASSERT_EQ(cfg.plugins.size(), 3u);
+  EXPECT_EQ(cfg.plugins[0].name, "cuda0");
+  EXPECT_EQ(cfg.plugins[1].name, "cuda_1-b");
+  EXPECT_EQ(cfg.plugins[1].options.at("device"), "1");
+  EXPECT_EQ(cfg.plugins[2].name, "") << "not set: the plugin's own";
+  EXPECT_NE(describe(cfg).find("cuda0: /opt/rbdgrad/librbdgrad_cuda.so"), std::string::npos) << describe(cfg);
+  for (const char* bad : {"\"\"", "Cuda0", "cuda 0", "cuda.0", "gpu/0", "\"abcdefghijabcdefghijabcdefghijabc\"", "[a]"}) {
+    s = parse_config(std::string("plugins:\n  - path: /p.so\n    name: ") + bad + "\n", "t", cfg);
+    ASSERT_FALSE(s.is_ok()) << bad;
+    EXPECT_NE(s.message().find("plugins[0].name"), std::string::npos) << s.message();
+  }
+  s = parse_config("plugins:\n  - path: /p.so\n    name: abcdefghijabcdefghijabcdefghijab\n", "t", cfg);
+  EXPECT_TRUE(s.is_ok()) << "32 characters: " << s.to_string();
+  s = parse_config(
+      "plugins:\n  - {path: /a.so, name: gpu}\n  - {path: /b.so, name: gpu}\n", "t", cfg);
+  ASSERT_FALSE(s.is_ok());
+  EXPECT_NE(s.message().find("plugins[1].name"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("'gpu' is already the name of another plugin"), std::string::npos) << s.message();
+}
+
 TEST(ServerConfigTest, OverridesWorkersLimitsAndLogLevelKeepingOtherDefaults) {
   ServerConfig cfg;
   const Status s = parse_config(
@@ -247,6 +276,13 @@ TEST(ServerConfigTest, SchedulerSection) {
   EXPECT_EQ(cfg.scheduler.calibrate, "start");
   EXPECT_EQ(cfg.scheduler.calibration_file, "");
   EXPECT_EQ(cfg.scheduler.split_min_states, 4096);
+  EXPECT_EQ(cfg.scheduler.backend_timeout_ms, -1) << "from the latency model";
+  EXPECT_NE(describe(cfg).find("backend timeout max(1 s, 20x the prediction)"), std::string::npos);
+  ASSERT_TRUE(parse_config("scheduler:\n  backend_timeout_ms: 0\n", "t", cfg));
+  EXPECT_EQ(cfg.scheduler.backend_timeout_ms, 0);
+  EXPECT_NE(describe(cfg).find("backend timeout off"), std::string::npos);
+  ASSERT_TRUE(parse_config("scheduler:\n  backend_timeout_ms: 2500\n", "t", cfg));
+  EXPECT_EQ(cfg.scheduler.backend_timeout_ms, 2500);
   ASSERT_TRUE(parse_config("scheduler:\n  policy: threshold\n  small_n: 16\n  large_n: 512\n  calibrate: off\n"
                            "  calibration_file: /var/cache/rbdgrad/cal.yaml\n  calibration_sizes: [1, 8, 64]\n"
                            "  preferred_batch_states: 64\n  split_min_states: 0\n",
@@ -271,6 +307,8 @@ TEST(ServerConfigTest, SchedulerSection) {
       {"scheduler:\n  sizes: [1]\n", "unknown key 'scheduler.sizes'"},
       {"scheduler:\n  preferred_batch_states: 0\n", "scheduler.preferred_batch_states"},
       {"scheduler:\n  split_min_states: -1\n", "scheduler.split_min_states"},
+      {"scheduler:\n  backend_timeout_ms: -2\n", "scheduler.backend_timeout_ms"},
+      {"scheduler:\n  backend_timeout_ms: soon\n", "scheduler.backend_timeout_ms"},
   };
   for (const auto& [text, want] : bad) {
     ServerConfig c;

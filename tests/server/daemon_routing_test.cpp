@@ -185,6 +185,7 @@ TEST(DaemonRouting, RequestsThatCannotMeetTheirDeadlineFailFast) {
 TEST(DaemonRouting, AHungBackendIsRoutedAroundAndDeadlinesHold) {
   DaemonOptions options = routing_options();
   options.config.plugins[0].options["hang_us"] = "1500000";  // the fpga hangs 1.5 s on the marker
+  options.config.scheduler.backend_timeout_ms = 0;  // no bound: the call runs to its end (see below)
   std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
   ASSERT_NE(daemon, nullptr);
   const auto channel = channel_to(daemon->addresses()[0]);
@@ -250,6 +251,127 @@ TEST(DaemonRouting, AHungBackendIsRoutedAroundAndDeadlinesHold) {
   EXPECT_THAT(text, ::testing::HasSubstr(refused));
   // and the fpga serves again
   EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
+}
+
+// A bounded backend call (scheduler.backend_timeout_ms, issue 9): the fpga hangs 3 s on the
+// marker; past the 300 ms limit the request runs again on the next best backend (the cpu), which
+// answers it, the timeout is counted, the fpga is suspect and avoided, the late result is dropped
+// when the fpga returns (which clears the suspicion), and the daemon stops cleanly afterwards.
+TEST(DaemonRouting, AHungCallIsTimedOutAndItsRequestRunsElsewhere) {
+  DaemonOptions options = routing_options();
+  options.config.plugins[0].options["hang_us"] = "3000000";
+  options.config.scheduler.backend_timeout_ms = 300;
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  const auto channel = channel_to(daemon->addresses()[0]);
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA) << "the fpga's 20 us wins";
+
+  v1::ComputeRequest hang = make_request("iiwa14", kIiwaNv, 1, 5, "hang", kCudaOutputs);
+  set_value(hang.mutable_q(), 0, -998.0);
+  hang.set_precision(v1::PRECISION_AUTO);
+  auto stub = v1::Dynamics::NewStub(channel);
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::ComputeResponse resp;
+    const grpc::Status s = stub->Compute(&ctx, hang, &resp);
+    const auto took = std::chrono::steady_clock::now() - t0;
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(resp.request_id(), "hang");
+    EXPECT_EQ(resp.backend(), v1::BACKEND_CPU);
+    EXPECT_EQ(resp.backend_name(), "cpu");
+    EXPECT_EQ(resp.precision(), v1::PRECISION_F64) << "the cpu's best";
+    ASSERT_EQ(resp.failovers_size(), 1);
+    EXPECT_THAT(resp.failovers(0), ::testing::StartsWith("fpga: timed out: still running after "));
+    EXPECT_THAT(resp.failovers(0), ::testing::HasSubstr("limit 300 ms"));
+    // the cpu fake's outputs: element e of state 0 is e / 1000
+    const std::vector<double> dq = values_of(resp.dqdd_dq());
+    ASSERT_EQ(dq.size(), static_cast<std::size_t>(kIiwaNv * kIiwaNv));
+    EXPECT_DOUBLE_EQ(dq[5], 0.005);
+    EXPECT_GE(took, std::chrono::milliseconds(300));
+    EXPECT_LT(took, std::chrono::milliseconds(1500)) << "answered by the cpu, not after the 3 s hang";
+  }
+  EXPECT_THAT(daemon->metrics().text(), ::testing::HasSubstr("rbdgrad_backend_timeouts_total{backend=\"fpga\"} 1"));
+  EXPECT_THAT(daemon->metrics().text(), ::testing::HasSubstr("rbdgrad_failovers_total{from_backend=\"fpga\"} 1"));
+  const BackendState* fpga = nullptr;
+  for (const BackendState& b : daemon->backends().backends())
+    if (b.name == "fpga") fpga = &b;
+  ASSERT_NE(fpga, nullptr);
+  EXPECT_TRUE(daemon->scheduler().suspect(*fpga));
+
+  // the next request avoids the suspect fpga (its 20 us would win otherwise)
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_CPU);
+  // pinned to it, with no other backend of its kind: waits for it (not refused, not moved)
+  EXPECT_EQ(daemon->scheduler().backend_timeout_us(20), 300e3);
+
+  // the hung call returns after 3 s: its result is dropped, and the fpga is trusted again
+  for (int i = 0; i < 600 && daemon->scheduler().suspect(*fpga); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_FALSE(daemon->scheduler().suspect(*fpga)) << "its late call succeeded";
+  EXPECT_EQ(compute_auto(channel, 1, v1::PRECISION_AUTO).backend(), v1::BACKEND_FPGA);
+  // every request answered once: the hung one counted once, by the cpu
+  for (int i = 0; i < 400 && daemon->service().in_flight() != 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const std::string text = daemon->metrics().text();
+  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_requests_total{backend=\"cpu\",code=\"ok\",mode=\"none\","
+                                         "model=\"iiwa14\",precision=\"f64\"} 2"));
+  EXPECT_THAT(text, ::testing::HasSubstr("rbdgrad_requests_total{backend=\"fpga\",code=\"ok\",mode=\"none\","
+                                         "model=\"iiwa14\",precision=\"fixed\"} 2"));
+  const auto stop0 = std::chrono::steady_clock::now();
+  daemon.reset();
+  EXPECT_LT(std::chrono::steady_clock::now() - stop0, std::chrono::seconds(5));
+}
+
+// Stopping while a timed-out call still hangs: its request was answered elsewhere; the daemon
+// waits for the hung call to return (bounded by the fake) and stops cleanly.
+TEST(DaemonRouting, TheDaemonStopsWhileATimedOutCallStillHangs) {
+  DaemonOptions options = routing_options();
+  options.config.plugins[0].options["hang_us"] = "1500000";
+  options.config.scheduler.backend_timeout_ms = 150;
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  v1::ComputeRequest hang = make_request("iiwa14", kIiwaNv, 1, 5, "hang", kCudaOutputs);
+  set_value(hang.mutable_q(), 0, -998.0);
+  hang.set_precision(v1::PRECISION_AUTO);
+  grpc::ClientContext ctx;
+  v1::ComputeResponse resp;
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(stub->Compute(&ctx, hang, &resp).ok());
+  EXPECT_EQ(resp.backend(), v1::BACKEND_CPU);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(1000));
+  stub.reset();
+  daemon.reset();  // the fpga's pool thread returns from the hang, its result dropped
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_GE(took, std::chrono::milliseconds(1400)) << "the hung call was waited for";
+  EXPECT_LT(took, std::chrono::seconds(5));
+}
+
+// A hung call that nothing else can take (pinned to its backend) is waited for: answered once,
+// by that backend, late; the timeout still counts and marks it suspect until it succeeds.
+TEST(DaemonRouting, AHungCallWithNowhereElseToGoIsWaitedFor) {
+  DaemonOptions options = routing_options();
+  options.config.plugins[0].options["hang_us"] = "800000";
+  options.config.scheduler.backend_timeout_ms = 200;
+  std::unique_ptr<Daemon> daemon = start_daemon(std::move(options));
+  ASSERT_NE(daemon, nullptr);
+  auto stub = v1::Dynamics::NewStub(channel_to(daemon->addresses()[0]));
+  v1::ComputeRequest hang = make_request("iiwa14", kIiwaNv, 1, 5, "pinned", kCudaOutputs);
+  set_value(hang.mutable_q(), 0, -998.0);
+  hang.set_precision(v1::PRECISION_FIXED);
+  hang.set_backend(v1::BACKEND_FPGA);
+  grpc::ClientContext ctx;
+  v1::ComputeResponse resp;
+  const auto t0 = std::chrono::steady_clock::now();
+  const grpc::Status s = stub->Compute(&ctx, hang, &resp);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(800));
+  EXPECT_EQ(resp.backend(), v1::BACKEND_FPGA);
+  EXPECT_EQ(resp.failovers_size(), 0);
+  EXPECT_THAT(daemon->metrics().text(), ::testing::HasSubstr("rbdgrad_backend_timeouts_total{backend=\"fpga\"} 1"));
+  for (const BackendState& b : daemon->backends().backends())
+    if (b.name == "fpga") EXPECT_FALSE(daemon->scheduler().suspect(b)) << "its call succeeded in the end";
 }
 
 // A large request split across the cpu and cuda fakes (cpu 300 us + 2 us/state, cuda 3000 us +

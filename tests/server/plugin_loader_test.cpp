@@ -320,10 +320,35 @@ TEST(PluginRegistry, RefusesASecondPluginWithATakenName) {
   EXPECT_TRUE(registry.add(FAKE_OK_PATH).is_ok());
   const Status second = registry.add(FAKE_OK_PATH);
   EXPECT_EQ(second.code(), StatusCode::kFailedPrecondition);
-  EXPECT_EQ(second.message(), std::string("plugin ") + FAKE_OK_PATH + ": name 'fake' is already taken by " + FAKE_OK_PATH);
+  EXPECT_EQ(second.message(), std::string("plugin ") + FAKE_OK_PATH + ": name 'fake' is already taken by " +
+                                  FAKE_OK_PATH + " (the same library): give each plugins entry of it its own `name:` "
+                                  "(e.g. fake0, fake1)");
   EXPECT_EQ(registry.available().size(), 1u);
   ASSERT_EQ(registry.unavailable().size(), 1u);
   EXPECT_EQ(registry.unavailable()[0].reason.message(), second.message());
+}
+
+// One library under two names (one backend per GPU): two plugins of one kind, each its own name.
+TEST(PluginRegistry, LoadsOneLibraryTwiceUnderTwoNames) {
+  PluginRegistry registry;
+  ASSERT_TRUE(registry.add(FAKE_CUDA_PATH, "cuda0").is_ok());
+  ASSERT_TRUE(registry.add(FAKE_CUDA_PATH, "cuda1").is_ok());
+  ASSERT_EQ(registry.available().size(), 2u);
+  EXPECT_EQ(registry.available()[0]->name(), "cuda0");
+  EXPECT_EQ(registry.available()[1]->name(), "cuda1");
+  EXPECT_EQ(registry.available()[0]->info().name, "cuda") << "the kind stays the plugin's own name";
+  EXPECT_EQ(registry.available()[1]->info().name, "cuda");
+  EXPECT_EQ(registry.find("cuda1"), registry.available()[1].get());
+  EXPECT_EQ(registry.find("cuda"), nullptr) << "find takes names, not kinds";
+  // the same name again is refused, saying what to do
+  const Status again = registry.add(FAKE_CUDA_PATH, "cuda1");
+  EXPECT_EQ(again.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(again.message(), ::testing::HasSubstr("name 'cuda1' is already taken"));
+  EXPECT_THAT(again.message(), ::testing::HasSubstr("`name:`"));
+  // the plugin's own name is taken only once as well
+  EXPECT_TRUE(registry.add(FAKE_CUDA_PATH).is_ok());
+  EXPECT_FALSE(registry.add(FAKE_CUDA_PATH).is_ok());
+  EXPECT_EQ(registry.available().size(), 3u);
 }
 
 TEST(PluginRegistry, EmptyListLoadsNothing) {
