@@ -1,12 +1,19 @@
 // rbdgrad::Client: unary calls (sync on the caller's thread, async on the gRPC callback API) and
 // the model and server descriptions.
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <fstream>
 #include <future>
+#include <random>
 #include <sstream>
+#include <thread>
 #include <utility>
 
+#include <grpc/impl/codegen/grpc_types.h>
+#include <grpcpp/alarm.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/security/credentials.h>
@@ -27,23 +34,89 @@ double microseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
 }
 
-// One asynchronous call: everything gRPC needs until the completion callback, which deletes it.
+// One asynchronous call: everything gRPC needs until the completion callback of its last attempt,
+// which deletes it.
 struct AsyncCall {
-  grpc::ClientContext ctx;
+  std::unique_ptr<grpc::ClientContext> ctx;  // the current attempt's (a context serves one call)
   v1::ComputeRequest msg;
   ComputeResult result;
+  ComputeResult::Impl* response = nullptr;  // result's Impl, which the attempt fills
   detail::ExpectedResult expected;
   Clock::time_point start;
+  std::chrono::system_clock::time_point deadline;  // of the whole call, every attempt
+  std::uint32_t attempts = 0;
+  // the pauses between attempts; kept until the call ends, so that none is destroyed in its own
+  // callback
+  std::vector<std::unique_ptr<grpc::Alarm>> alarms;
   Client::ComputeCallback done;
 };
 
-// Runs a unary call `method` of the stub into `response`, with the client's deadline rules.
+// Runs `attempt(ctx)` (one gRPC call on a fresh context) until it succeeds or the retry policy
+// says stop (see Client::Impl::retry_delay), every attempt under the deadline of the first;
+// `attempts`, when given, gets the number of attempts made. Returns the last attempt's status.
+template <class Attempt>
+grpc::Status with_retries(const Client::Impl& impl, std::optional<std::chrono::nanoseconds> timeout,
+                          Attempt&& attempt, std::uint32_t* attempts = nullptr) {
+  const std::chrono::system_clock::time_point deadline = detail::deadline_after(impl.timeout_or_default(timeout));
+  for (int n = 1;; ++n) {
+    grpc::ClientContext ctx;
+    impl.prepare_until(ctx, deadline);
+    grpc::Status st = attempt(ctx);
+    if (attempts) *attempts = static_cast<std::uint32_t>(n);
+    if (st.ok()) return st;
+    const std::optional<std::chrono::nanoseconds> delay = impl.retry_delay(st.error_code(), n, deadline);
+    if (!delay) return st;
+    std::this_thread::sleep_for(*delay);
+  }
+}
+
+// Runs a unary call `method` of the stub into `response`, with the client's deadline and retry
+// rules (every unary Dynamics call is a pure function of its request: retrying it is safe).
 template <class Request, class Response, class Method>
 RpcStatus unary(const Client::Impl& impl, Method method, const Request& request, Response& response,
                 std::optional<std::chrono::nanoseconds> timeout) {
-  grpc::ClientContext ctx;
-  impl.prepare(ctx, timeout);
-  return detail::from_grpc((impl.stub.get()->*method)(&ctx, request, &response));
+  return detail::from_grpc(with_retries(impl, timeout, [&](grpc::ClientContext& ctx) {
+    return (impl.stub.get()->*method)(&ctx, request, &response);
+  }));
+}
+
+// The last attempt of an asynchronous call is done: hand the result to the caller.
+void finish_async(Client::Impl* impl, AsyncCall* raw, const grpc::Status& grpc_status) {
+  std::unique_ptr<AsyncCall> owned(raw);
+  RpcStatus st = grpc_status.ok() ? detail::adopt_response(owned->expected, *owned->response, microseconds_since(owned->start))
+                                  : detail::from_grpc(grpc_status);
+  if (st) owned->response->timings.attempts = owned->attempts;
+  else detail::ResultAccess::invalidate(owned->result);
+  // The call's own objects go before the caller hears of the answer: its ClientContext holds a
+  // reference to the channel, whose last reference must not be dropped on this gRPC thread
+  // (~Impl waits for this).
+  ComputeResult answer = std::move(owned->result);
+  Client::ComputeCallback callback = std::move(owned->done);
+  owned.reset();
+  impl->async_finished();
+  callback(std::move(st), std::move(answer));
+}
+
+// Sends one attempt of an asynchronous call; on UNAVAILABLE with a retry left, an alarm sends the
+// next one after the pause (no thread waits).
+void start_attempt(Client::Impl* impl, AsyncCall* raw) {
+  raw->ctx = std::make_unique<grpc::ClientContext>();
+  impl->prepare_until(*raw->ctx, raw->deadline);
+  ++raw->attempts;
+  raw->response = &detail::ResultAccess::reset_for_call(raw->result);
+  impl->stub->async()->Compute(raw->ctx.get(), &raw->msg, &raw->response->response, [raw, impl](grpc::Status st) {
+    if (!st.ok()) {
+      if (const std::optional<std::chrono::nanoseconds> delay =
+              impl->retry_delay(st.error_code(), static_cast<int>(raw->attempts), raw->deadline)) {
+        raw->ctx.reset();
+        grpc::Alarm& alarm = *raw->alarms.emplace_back(std::make_unique<grpc::Alarm>());
+        // (a cancelled alarm, at gRPC's shutdown, still sends: that attempt then fails and ends the call)
+        alarm.Set(std::chrono::system_clock::now() + *delay, [raw, impl](bool) { start_attempt(impl, raw); });
+        return;
+      }
+    }
+    finish_async(impl, raw, st);
+  });
 }
 
 }  // namespace
@@ -56,7 +129,46 @@ std::chrono::system_clock::time_point deadline_after(std::chrono::nanoseconds ti
          std::chrono::duration_cast<std::chrono::system_clock::duration>(std::clamp(timeout, std::chrono::nanoseconds(0), kLongest));
 }
 
+std::string target_of(const std::vector<std::string>& addresses) {
+  if (addresses.empty()) throw ClientError({RpcCode::kInvalidArgument, "client: no server address"});
+  if (addresses.size() == 1) return addresses.front();
+  std::string family, target;
+  for (const std::string& a : addresses) {
+    std::string f;
+    const std::size_t colon = a.rfind(':');
+    if (colon != std::string::npos && colon > 0 && colon + 1 < a.size() && colon + 6 >= a.size() &&
+        std::all_of(a.begin() + static_cast<std::ptrdiff_t>(colon) + 1, a.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      const std::string host = a.substr(0, colon);
+      in_addr v4{};
+      in6_addr v6{};
+      if (host.size() > 2 && host.front() == '[' && host.back() == ']' &&
+          inet_pton(AF_INET6, host.substr(1, host.size() - 2).c_str(), &v6) == 1)
+        f = "ipv6";
+      else if (inet_pton(AF_INET, host.c_str(), &v4) == 1)
+        f = "ipv4";
+    }
+    if (f.empty())
+      throw ClientError({RpcCode::kInvalidArgument, "client: server address '" + a +
+                                                        "' of a list is not IPV4:PORT or [IPV6]:PORT (for a host "
+                                                        "name, give one target \"dns:///NAME:PORT\")"});
+    if (family.empty()) family = f;
+    if (f != family)
+      throw ClientError({RpcCode::kInvalidArgument, "client: the server addresses mix IPv4 and IPv6 ('" + a + "')"});
+    target += (target.empty() ? "" : ",") + a;
+  }
+  return family + ":" + target;
+}
+
 }  // namespace detail
+
+std::chrono::nanoseconds retry_backoff(const RetryPolicy& policy, int retry, double u) noexcept {
+  const double cap = std::max(0.0, static_cast<double>(policy.max_backoff.count()));
+  double b = std::max(0.0, static_cast<double>(policy.initial_backoff.count())) *
+             std::pow(std::max(1.0, policy.multiplier), std::max(0, retry - 1));
+  if (!(b <= cap)) b = cap;  // beyond the cap, or overflowed to infinity
+  const double jitter = std::clamp(policy.jitter, 0.0, 1.0);
+  return std::chrono::nanoseconds(static_cast<std::int64_t>(b * (1.0 - jitter * std::clamp(u, 0.0, 1.0))));
+}
 
 Client::Impl::~Impl() {
   std::unique_lock lock(async_mutex);
@@ -78,6 +190,28 @@ void Client::Impl::prepare(grpc::ClientContext& ctx, std::optional<std::chrono::
   ctx.set_deadline(detail::deadline_after(timeout_or_default(timeout)));
   ctx.set_wait_for_ready(options.wait_for_ready);
   add_token(ctx);
+}
+
+void Client::Impl::prepare_until(grpc::ClientContext& ctx, std::chrono::system_clock::time_point deadline) const {
+  ctx.set_deadline(deadline);
+  ctx.set_wait_for_ready(options.wait_for_ready);
+  add_token(ctx);
+}
+
+std::optional<std::chrono::nanoseconds> Client::Impl::retry_delay(int code, int attempts_made,
+                                                                  std::chrono::system_clock::time_point deadline) const {
+  if (code != static_cast<int>(grpc::StatusCode::UNAVAILABLE)) return std::nullopt;
+  const RetryPolicy& policy = options.retry;
+  if (attempts_made < policy.max_attempts) {
+    thread_local std::mt19937_64 rng{std::random_device{}()};
+    const std::chrono::nanoseconds delay = retry_backoff(policy, attempts_made, std::uniform_real_distribution<double>(0, 1)(rng));
+    if (std::chrono::system_clock::now() + delay < deadline) {
+      retries.fetch_add(1, std::memory_order_relaxed);
+      return delay;
+    }
+  }
+  gave_up.fetch_add(1, std::memory_order_relaxed);
+  return std::nullopt;
 }
 
 void Client::Impl::add_token(grpc::ClientContext& ctx) const {
@@ -147,6 +281,11 @@ bool decode_serving_status(const std::string& bytes, std::uint64_t& status) {
 Client::Client(std::string address, ClientOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->address = std::move(address);
   impl_->options = options;
+  const RetryPolicy& retry = options.retry;
+  if (retry.max_attempts < 1 || retry.initial_backoff.count() < 0 || retry.max_backoff.count() < 0 ||
+      !(retry.multiplier >= 1.0) || !(retry.jitter >= 0.0 && retry.jitter <= 1.0))
+    throw ClientError({RpcCode::kInvalidArgument,
+                       "client: retry: max_attempts >= 1, backoffs >= 0, multiplier >= 1, jitter in [0, 1]"});
   if (!options.bearer_token.empty()) impl_->authorization = "Bearer " + options.bearer_token;
   grpc::ChannelArguments args;
   const int max_bytes = static_cast<int>(std::clamp<std::int64_t>(options.max_message_bytes, 0, INT_MAX));
@@ -164,9 +303,27 @@ Client::Client(std::string address, ClientOptions options) : impl_(std::make_uni
     if (!tls.target_name_override.empty()) args.SetSslTargetNameOverride(tls.target_name_override);
     credentials = grpc::SslCredentials(ssl);
   }
+  // The load-balancing policy, as the channel's service config (one a DNS TXT record might give is
+  // ignored): round_robin spreads calls over every address the target resolves to.
+  const std::string& target = impl_->address;
+  const auto scheme = [&target](const char* s) { return target.rfind(s, 0) == 0; };
+  const bool round_robin =
+      options.load_balancing == LoadBalancing::kRoundRobin ||
+      (options.load_balancing == LoadBalancing::kAuto && (scheme("ipv4:") || scheme("ipv6:") || scheme("dns:")));
+  if (round_robin || options.load_balancing == LoadBalancing::kPickFirst) {
+    args.SetServiceConfigJSON(round_robin ? R"({"loadBalancingConfig": [{"round_robin": {}}]})"
+                                          : R"({"loadBalancingConfig": [{"pick_first": {}}]})");
+    args.SetInt(GRPC_ARG_SERVICE_CONFIG_DISABLE_RESOLUTION, 1);
+  }
   impl_->channel = grpc::CreateCustomChannel(impl_->address, credentials, args);
   impl_->stub = v1::Dynamics::NewStub(impl_->channel);
 }
+
+Client::Client(const std::vector<std::string>& addresses, ClientOptions options)
+    : Client(detail::target_of(addresses), std::move(options)) {}
+
+Client::Client(std::initializer_list<std::string> addresses, ClientOptions options)
+    : Client(std::vector<std::string>(addresses), std::move(options)) {}
 
 Client::~Client() = default;
 Client::Client(Client&&) noexcept = default;
@@ -174,6 +331,10 @@ Client& Client::operator=(Client&&) noexcept = default;
 
 const std::string& Client::address() const noexcept { return impl_->address; }
 const ClientOptions& Client::options() const noexcept { return impl_->options; }
+
+RetryStats Client::retry_stats() const noexcept {
+  return {impl_->retries.load(std::memory_order_relaxed), impl_->gave_up.load(std::memory_order_relaxed)};
+}
 
 ComputeResult Client::compute(const ComputeRequest& req) const {
   ComputeResult result;
@@ -187,10 +348,14 @@ RpcStatus Client::compute(const ComputeRequest& req, ComputeResult& out) const {
   thread_local v1::ComputeRequest msg;
   ComputeResult::Impl& result = detail::ResultAccess::reset_for_call(out);
   if (RpcStatus st = detail::encode_request(req, msg); !st) return st;
-  grpc::ClientContext ctx;
-  impl_->prepare(ctx, req.timeout);
-  if (grpc::Status st = impl_->stub->Compute(&ctx, msg, &result.response); !st.ok()) return detail::from_grpc(st);
-  return detail::adopt_response(detail::expected_result(req), result, microseconds_since(start));
+  std::uint32_t attempts = 1;
+  const grpc::Status grpc_status = with_retries(
+      *impl_, req.timeout, [&](grpc::ClientContext& ctx) { return impl_->stub->Compute(&ctx, msg, &result.response); },
+      &attempts);
+  if (!grpc_status.ok()) return detail::from_grpc(grpc_status);
+  RpcStatus st = detail::adopt_response(detail::expected_result(req), result, microseconds_since(start));
+  result.timings.attempts = attempts;
+  return st;
 }
 
 void Client::compute_async(const ComputeRequest& req, ComputeCallback done) const {
@@ -202,25 +367,10 @@ void Client::compute_async(const ComputeRequest& req, ComputeCallback done) cons
   }
   call->expected = detail::expected_result(req);
   call->done = std::move(done);
-  impl_->prepare(call->ctx, req.timeout);
-  ComputeResult::Impl& result = detail::ResultAccess::reset_for_call(call->result);
-  AsyncCall* raw = call.release();  // owned by the callback from here
+  call->deadline = detail::deadline_after(impl_->timeout_or_default(req.timeout));
+  AsyncCall* raw = call.release();  // owned by the attempts' callbacks from here
   impl_->async_started();
-  impl_->stub->async()->Compute(&raw->ctx, &raw->msg, &result.response, [raw, r = &result, impl = impl_.get()](
-                                                                             grpc::Status grpc_status) {
-    std::unique_ptr<AsyncCall> owned(raw);
-    RpcStatus st = grpc_status.ok() ? detail::adopt_response(owned->expected, *r, microseconds_since(owned->start))
-                                    : detail::from_grpc(grpc_status);
-    if (!st) detail::ResultAccess::invalidate(owned->result);
-    // The call's own objects go before the caller hears of the answer: its ClientContext holds a
-    // reference to the channel, whose last reference must not be dropped on this gRPC thread
-    // (~Impl waits for this).
-    ComputeResult answer = std::move(owned->result);
-    Client::ComputeCallback callback = std::move(owned->done);
-    owned.reset();
-    impl->async_finished();
-    callback(std::move(st), std::move(answer));
-  });
+  start_attempt(impl_.get(), raw);
 }
 
 std::future<ComputeResult> Client::compute_async(const ComputeRequest& req) const {
@@ -295,13 +445,13 @@ RpcStatus Client::check_health(std::string& status, const std::string& service,
   grpc::Slice slice(request);
   const grpc::ByteBuffer request_bytes(&slice, 1);
   grpc::ByteBuffer response_bytes;
-  grpc::ClientContext ctx;
-  impl_->prepare(ctx, timeout);
   grpc::GenericStub stub(impl_->channel);
-  std::promise<grpc::Status> done;
-  stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request_bytes, &response_bytes,
-                 [&done](grpc::Status st) { done.set_value(std::move(st)); });
-  const grpc::Status st = done.get_future().get();
+  const grpc::Status st = with_retries(*impl_, timeout, [&](grpc::ClientContext& ctx) {
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request_bytes, &response_bytes,
+                   [&done](grpc::Status s) { done.set_value(std::move(s)); });
+    return done.get_future().get();
+  });
   if (!st.ok()) return detail::from_grpc(st);
   std::vector<grpc::Slice> slices;
   std::string bytes;
@@ -316,8 +466,11 @@ RpcStatus Client::check_health(std::string& status, const std::string& service,
 
 RpcStatus Client::calibrate(std::vector<std::string>& log, ServerInfo& info,
                            std::optional<std::chrono::nanoseconds> timeout) const {
+  // not retried: calibrating is no pure function, and its UNAVAILABLE means another calibration runs
   v1::CalibrateResponse response;
-  RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::Calibrate, v1::CalibrateRequest(), response, timeout);
+  grpc::ClientContext ctx;
+  impl_->prepare(ctx, timeout);
+  RpcStatus st = detail::from_grpc(impl_->stub->Calibrate(&ctx, v1::CalibrateRequest(), &response));
   if (st) {
     log.assign(response.log().begin(), response.log().end());
     info = detail::decode(response.info());

@@ -81,7 +81,7 @@ RpcStatus adopt_response(const ExpectedResult& expected, ComputeResult::Impl& im
   impl.type = expected.type;
   impl.backend = from_proto(r.backend());
   impl.precision = from_proto(r.precision());
-  impl.timings = {r.timings().queue_us(), r.timings().compute_us(), r.timings().total_us(), round_trip_us};
+  impl.timings = {r.timings().queue_us(), r.timings().compute_us(), r.timings().total_us(), round_trip_us, 1};
   impl.valid = true;
   return RpcStatus::ok();
 }

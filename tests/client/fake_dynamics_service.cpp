@@ -122,8 +122,28 @@ grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::Com
   return grpc::Status::OK;
 }
 
+void FakeDynamicsService::fail_next(int count, grpc::StatusCode code) {
+  std::lock_guard lock(mutex_);
+  failures_left_ = count;
+  failure_code_ = code;
+}
+
+std::vector<std::chrono::steady_clock::time_point> FakeDynamicsService::call_times() const {
+  std::lock_guard lock(mutex_);
+  return call_times_;
+}
+
+grpc::Status FakeDynamicsService::injected() {
+  std::lock_guard lock(mutex_);
+  call_times_.push_back(std::chrono::steady_clock::now());
+  if (failures_left_ <= 0) return grpc::Status::OK;
+  --failures_left_;
+  return {failure_code_, "injected failure"};
+}
+
 grpc::Status FakeDynamicsService::Compute(grpc::ServerContext* ctx, const v1::ComputeRequest* req,
                                           v1::ComputeResponse* resp) {
+  if (grpc::Status st = injected(); !st.ok()) return st;
   return answer(ctx, *req, *resp);
 }
 
@@ -133,6 +153,7 @@ grpc::Status FakeDynamicsService::ComputeStream(
     std::lock_guard lock(mutex_);
     ++streams_;
   }
+  if (grpc::Status st = injected(); !st.ok()) return st;
   v1::ComputeRequest req;
   while (stream->Read(&req)) {
     v1::ComputeResponse resp;
@@ -144,6 +165,7 @@ grpc::Status FakeDynamicsService::ComputeStream(
 
 grpc::Status FakeDynamicsService::ListModels(grpc::ServerContext*, const v1::ListModelsRequest*,
                                              v1::ListModelsResponse* resp) {
+  if (grpc::Status st = injected(); !st.ok()) return st;
   auto* a = resp->add_models();
   a->set_name("iiwa14");
   a->set_nv(7);
@@ -219,6 +241,7 @@ grpc::Status FakeDynamicsService::GetModel(grpc::ServerContext*, const v1::GetMo
 
 grpc::Status FakeDynamicsService::GetServerInfo(grpc::ServerContext*, const v1::GetServerInfoRequest*,
                                                 v1::GetServerInfoResponse* resp) {
+  if (grpc::Status st = injected(); !st.ok()) return st;
   resp->set_version("9.8.7-fake");
   auto* cpu = resp->add_backends();
   cpu->set_backend(v1::BACKEND_CPU);

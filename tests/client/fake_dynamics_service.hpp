@@ -6,6 +6,8 @@
 //   "slow"    -> answers after 5 s unless cancelled    "short"   -> every output one value short
 // Requests are checked like the daemon does (N >= 1, input sizes, at least one output, no NaN in q:
 // INVALID_ARGUMENT "state k: field 'q' element i is not finite (nan)").
+// fail_next(k) makes the next k calls of Compute, ComputeStream, ListModels and GetServerInfo fail
+// at once with UNAVAILABLE (or another code), as a server that is going away would.
 #pragma once
 
 #include <chrono>
@@ -55,11 +57,23 @@ class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
   std::chrono::milliseconds last_time_left() const;
   int stream_count() const;
 
+  // The next `count` calls of Compute, ComputeStream, ListModels or GetServerInfo fail with `code`
+  // ("injected failure") before anything else.
+  void fail_next(int count, grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE);
+  // When each call of those four arrived (failed ones included), in order.
+  std::vector<std::chrono::steady_clock::time_point> call_times() const;
+
  private:
   grpc::Status answer(grpc::ServerContext* ctx, const rbdgrad::v1::ComputeRequest& req,
                       rbdgrad::v1::ComputeResponse& resp);
 
+  // records the call; the injected failure, if one is left, else OK
+  grpc::Status injected();
+
   mutable std::mutex mutex_;
+  int failures_left_ = 0;
+  grpc::StatusCode failure_code_ = grpc::StatusCode::UNAVAILABLE;
+  std::vector<std::chrono::steady_clock::time_point> call_times_;
   std::vector<rbdgrad::v1::ComputeRequest> received_;
   std::chrono::milliseconds last_time_left_{0};
   int streams_ = 0;

@@ -17,14 +17,33 @@
 // timeout, else the client's default. ClientOptions::tls and bearer_token reach a daemon with TLS
 // (or mutual TLS) and token authentication.
 //
-// Threads: a Client may be used from any number of threads at once (they share one channel, i.e.
-// one connection). A ComputeSession is used by one thread at a time.
+// Threads: a Client may be used from any number of threads at once (they share one channel: one
+// connection per server). A ComputeSession is used by one thread at a time.
+//
+// Several servers: Client({"10.0.0.5:50050", "10.0.0.5:50051"}), a target that lists several
+// addresses ("ipv4:10.0.0.5:50050,10.0.0.5:50051") or a DNS name with several records
+// ("dns:///rbdgradd-headless.mpc.svc.cluster.local:50051") gives one channel with gRPC's
+// round_robin policy: it connects to every address and sends each call to the next server that is
+// up (ClientOptions::load_balancing).
+//
+// Retries (ClientOptions::retry): a unary call that fails with UNAVAILABLE (no server reachable,
+// or the connection dropped during the call, e.g. a daemon killed) is sent again after a backoff
+// with jitter, up to retry.max_attempts attempts in all and never past the call's deadline: its
+// timeout covers every attempt and pause. With several servers round_robin sends the retry to a
+// server that is up. Every unary Dynamics call is a pure function of its request (Compute,
+// ListModels, GetModel, ListScenes, GetScene, GetServerInfo, and the health check), so sending it
+// twice is harmless; calibrate() is not retried (its UNAVAILABLE means another calibration runs).
+// Other codes are never retried. A ComputeSession is never retried or replayed: an error
+// (UNAVAILABLE included) ends the session, and the caller opens a new one (which round_robin
+// places on a server that is up) and decides what to send again. ComputeTimings::attempts and
+// Client::retry_stats() tell how many attempts were made.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <future>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <string>
@@ -58,6 +77,41 @@ struct TlsOptions {
   std::string target_name_override;
 };
 
+// How calls that fail with UNAVAILABLE are retried. The pause before retry k (k = 1, 2, ...) is
+// drawn uniformly from [(1 - jitter) * b, b], b = min(max_backoff, initial_backoff * multiplier^(k-1))
+// (see retry_backoff); a retry whose pause would end past the call's deadline is not made.
+struct RetryPolicy {
+  // Attempts in all, the first included; 1 = no retry. Default 4.
+  int max_attempts = 4;
+  // Default 10 ms, then x2 per retry up to 1 s.
+  std::chrono::nanoseconds initial_backoff = std::chrono::milliseconds(10);
+  std::chrono::nanoseconds max_backoff = std::chrono::seconds(1);
+  double multiplier = 2.0;  // >= 1
+  // In [0, 1]: 1 = "full jitter" (a pause anywhere in [0, b]), 0 = exactly b. Default 1.
+  double jitter = 1.0;
+};
+
+/// The pause before retry `retry` (1 = the first retry) for a uniform draw `u` in [0, 1):
+/// b * (1 - jitter * u), b as in RetryPolicy. Exposed for tests and for callers that retry
+/// sessions themselves.
+RBDGRAD_CLIENT_EXPORT std::chrono::nanoseconds retry_backoff(const RetryPolicy& policy, int retry, double u) noexcept;
+
+// gRPC's load-balancing policy of the client's channel.
+enum class LoadBalancing {
+  // round_robin for several addresses and for "ipv4:", "ipv6:" and "dns:" targets (a DNS name may
+  // stand for several servers, e.g. a Kubernetes headless Service); pick_first (gRPC's default:
+  // every call to the first address that answers) for one plain "host:port" or a "unix:" socket.
+  kAuto,
+  kPickFirst,
+  kRoundRobin,
+};
+
+// What the retries did, counted over the client's life (every call and thread).
+struct RetryStats {
+  std::uint64_t retries = 0;  // attempts made after an UNAVAILABLE
+  std::uint64_t gave_up = 0;  // calls that ended UNAVAILABLE: attempts used up or no time left
+};
+
 struct ClientOptions {
   // Deadline of a call that does not set its own timeout. Default 10 s.
   std::chrono::nanoseconds default_timeout = std::chrono::seconds(10);
@@ -72,6 +126,10 @@ struct ClientOptions {
   // Sent with every call as the metadata "authorization: Bearer <token>", for a daemon with
   // auth.tokens_file. "" = none (such a daemon answers UNAUTHENTICATED).
   std::string bearer_token;
+  // Retries of unary calls after UNAVAILABLE (see RetryPolicy); {.max_attempts = 1} = none.
+  RetryPolicy retry;
+  // The channel's load-balancing policy; kAuto: see LoadBalancing.
+  LoadBalancing load_balancing = LoadBalancing::kAuto;
 };
 
 struct SessionOptions {
@@ -126,9 +184,22 @@ class RBDGRAD_CLIENT_EXPORT Client {
 
   /// \param address  a gRPC target: "127.0.0.1:50051", "localhost:50051", "unix:/path/to.sock".
   ///                 Connecting is lazy: the first call reports an unreachable server (or a
-  ///                 failed TLS handshake) as UNAVAILABLE. Constructing throws ClientError
-  ///                 (INVALID_ARGUMENT) only when a file of options.tls cannot be read.
+  ///                 failed TLS handshake) as UNAVAILABLE. Also a list: "ipv4:HOST:PORT,HOST:PORT",
+  ///                 "ipv6:[ADDR]:PORT,...", or a "dns:///NAME:PORT" of several records (round_robin,
+  ///                 see LoadBalancing). Constructing throws ClientError (INVALID_ARGUMENT) only
+  ///                 when a file of options.tls cannot be read or options.retry is out of range
+  ///                 (max_attempts < 1, a negative backoff, multiplier < 1, jitter outside [0, 1]).
   explicit Client(std::string address = std::string(kDefaultServerAddress), ClientOptions options = {});
+  /// Several servers on one channel, round_robin over them (unless options.load_balancing says
+  /// otherwise): each "IPV4:PORT" or "[IPV6]:PORT", all of one family (the target becomes
+  /// "ipv4:A,B,..." / "ipv6:A,B,..."; address() returns it). One entry is taken as the constructor
+  /// above takes it. For host names use one "dns:///NAME:PORT" target instead. Throws ClientError
+  /// (INVALID_ARGUMENT) for an empty list, an entry that is not such an address (a "unix:" socket
+  /// included) or mixed families, and as the constructor above.
+  explicit Client(const std::vector<std::string>& addresses, ClientOptions options = {});
+  /// The same, for Client({"127.0.0.1:50051", "127.0.0.1:50052"}) (Client{address} with one
+  /// address stays the single-address client).
+  Client(std::initializer_list<std::string> addresses, ClientOptions options = {});
   /// Waits for the asynchronous calls still in flight to complete (each by its deadline at the
   /// latest); their callbacks may still be running when it returns.
   ~Client();
@@ -139,6 +210,8 @@ class RBDGRAD_CLIENT_EXPORT Client {
 
   const std::string& address() const noexcept;
   const ClientOptions& options() const noexcept;
+  /// Retries made and calls given up since the client was made (see RetryPolicy).
+  RetryStats retry_stats() const noexcept;
 
   /// One batch, synchronously. Throws ClientError with the server's code and message.
   ComputeResult compute(const ComputeRequest& req) const;

@@ -24,7 +24,9 @@ struct ComputeTimings {
   std::uint64_t compute_us = 0;  // server: in the backend
   std::uint64_t total_us = 0;    // server: request accepted -> response ready
   double round_trip_us = 0;      // client: call started -> response checked (encoding, transport,
-                                 // server and decoding; for async calls, up to the callback)
+                                 // server and decoding; for async calls, up to the callback;
+                                 // every attempt and pause included)
+  std::uint32_t attempts = 1;    // client: calls sent for this result, 1 + retries after UNAVAILABLE
 };
 
 // One backend's share of a request the server split across backends: states
