@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -26,7 +27,8 @@ namespace rbdgrad::testing {
 
 class DaemonProcess {
  public:
-  /// Starts `binary` with `--config <yaml>` (when `config_yaml` is not empty) and the listen flags,
+  /// Starts `binary` with `--config <yaml>` (when `config_yaml` is not empty) and the listen flags
+  /// (an ephemeral TCP port unless `extra_args` has a --listen),
   /// then waits up to `timeout` for the ready file. Throws std::runtime_error with the daemon's log
   /// when it exits or times out first.
   DaemonProcess(const std::string& binary, const std::string& config_yaml, std::vector<std::string> extra_args = {},
@@ -42,7 +44,10 @@ class DaemonProcess {
       std::ofstream(dir_ + "/config.yaml") << config_yaml;
       args.insert(args.end(), {"--config", dir_ + "/config.yaml"});
     }
-    args.insert(args.end(), {"--listen", "127.0.0.1:0", "--unix-socket", socket_path_, "--ready-file", ready});
+    // an ephemeral loopback port unless extra_args name the address (a daemon started again on its port)
+    if (std::find(extra_args.begin(), extra_args.end(), "--listen") == extra_args.end())
+      args.insert(args.end(), {"--listen", "127.0.0.1:0"});
+    args.insert(args.end(), {"--unix-socket", socket_path_, "--ready-file", ready});
     args.insert(args.end(), extra_args.begin(), extra_args.end());
 
     // the daemon's stdout and stderr go to a log file, read back when something fails
