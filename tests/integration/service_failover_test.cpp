@@ -2,10 +2,7 @@
 // retries): the load is spread over the three (each one's rbdgrad_requests_total, scraped from its
 // /metrics), and a daemon killed in the middle of a wave of requests loses none of them: the calls
 // it held fail with UNAVAILABLE and the client sends them again to the two others.
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -15,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "../support/http_get.hpp"
 #include "integration_support.hpp"
 
 namespace rbdgrad::testing {
@@ -36,24 +34,6 @@ metrics:
   listen: "127.0.0.1:0"
 )";
 
-// GET http://127.0.0.1:port/path, the whole answer; "" when it cannot connect
-std::string http_get(int port, const std::string& path) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  std::string out;
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) {
-    const std::string request = "GET " + path + " HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n";
-    if (::write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
-      char buffer[4096];
-      for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;) out.append(buffer, static_cast<std::size_t>(got));
-    }
-  }
-  ::close(fd);
-  return out;
-}
 
 // The metrics port the daemon logged ("metrics: http://127.0.0.1:PORT/metrics"); 0 if not within 20 s.
 int metrics_port(const DaemonProcess& d) {
