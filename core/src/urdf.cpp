@@ -269,7 +269,12 @@ Status load_urdf_string(const std::string& xml, const std::string& name_for_mess
   }
   if (!urdf)
     return invalid_argument(name_for_messages + ": malformed URDF" + (messages.empty() ? "" : ": " + messages));
-  return build_model(urdf, name_for_messages, model, options);
+  Status built = build_model(urdf, name_for_messages, model, options);
+  // urdfdom's links own their child links (shared_ptr): a joint that makes a link its own
+  // descendant (a closed loop, which build_model refuses) leaves a cycle of owners that would
+  // never be freed (found by fuzz/urdf_fuzzer)
+  for (auto& [name, link] : urdf->links_) link->child_links.clear();
+  return built;
 }
 
 Status load_urdf_file(const std::string& path, Model& model, const UrdfOptions& options) {

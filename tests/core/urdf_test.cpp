@@ -3,6 +3,7 @@
 
 #include "../support/test_models.hpp"
 #include <cstdio>
+#include <malloc.h>  // mallinfo2: the heap in use (glibc)
 
 #include "rbdgrad/algorithm/rnea.hpp"
 
@@ -134,6 +135,21 @@ std::vector<BadCase> bad_cases() {
 
 INSTANTIATE_TEST_SUITE_P(Bad, UrdfErrors, ::testing::ValuesIn(bad_cases()),
                          [](const ::testing::TestParamInfo<BadCase>& p) { return std::string(p.param.name); });
+
+// urdfdom's links own their child links (shared_ptr): a closed loop that parseURDF returns is a
+// cycle of owners, which load_urdf_string must break before it drops the parsed model (found by
+// fuzz/urdf_fuzzer: such a load leaked what the parser built)
+TEST(Urdf, RefusedLoopFreesWhatTheParserBuilt) {
+  const std::string loop = robot(link("base", false) + link("a") + link("b") + joint("j1", "revolute", "base", "a") +
+                                 joint("j2", "revolute", "a", "b") + joint("j3", "revolute", "b", "a"));
+  Model m;
+  ASSERT_FALSE(load(loop, m).is_ok());  // once first: one-time allocations
+  const auto in_use = [] { return static_cast<long long>(mallinfo2().uordblks); };
+  const long long before = in_use();
+  constexpr int kLoads = 100;
+  for (int i = 0; i < kLoads; ++i) (void)load(loop, m);
+  EXPECT_LT(in_use() - before, kLoads * 64) << "bytes still allocated after " << kLoads << " refused loads";
+}
 
 TEST(Urdf, MissingFileIsNotFound) {
   Model m;
