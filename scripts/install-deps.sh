@@ -13,6 +13,7 @@ packages=(
   libyaml-cpp-dev                # daemon configuration (coming with the service)
   prometheus-cpp-dev             # the daemon's /metrics endpoint (Prometheus text format over HTTP)
   libgtest-dev libgmock-dev      # unit tests
+  clang libclang-rt-14-dev llvm-14  # fuzzers (scripts/fuzz.sh): clang, libFuzzer and the sanitizers, llvm-symbolizer
   libbenchmark-dev               # microbenchmarks (bench)
   libxrt-dev                     # FPGA backend: XRT host API (plugins/fpga)
   python3                        # CLI tests compare result files (stdlib only)
