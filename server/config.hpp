@@ -196,7 +196,7 @@ struct ServerConfig {
   // Token authentication. Default off.
   AuthConfig auth;
   // Models to load at start-up. Default: one model "iiwa14" from the embedded iiwa14.
-  std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt}};
+  std::vector<ModelConfig> models = {ModelConfig{"iiwa14", "", "iiwa14", std::nullopt, {}}};
   // Scenes made from those models (SceneConfig). Default none.
   std::vector<SceneConfig> scenes;
   // Extra backend plugins. Default empty (the CPU backend is always found next to the binary).

@@ -88,9 +88,9 @@ spdlog::level::level_enum spdlog_level(server::LogLevel level) {
 
 // --model NAME|PATH: an embedded robot by its name, else a URDF file named after its stem
 server::ModelConfig model_from_flag(const std::string& spec) {
-  if (!rbdgrad::embedded_robot_urdf(spec).empty()) return {spec, "", spec, std::nullopt};
+  if (!rbdgrad::embedded_robot_urdf(spec).empty()) return {spec, "", spec, std::nullopt, {}};
   std::string name = std::filesystem::path(spec).stem().string();
-  return {name.empty() ? spec : name, spec, "", std::nullopt};
+  return {name.empty() ? spec : name, spec, "", std::nullopt, {}};
 }
 
 }  // namespace
