@@ -9,8 +9,11 @@
 #include <cstdlib>
 #include <string>
 
+#include "fuzz_support.hpp"
 #include "config.hpp"
 #include "model_registry.hpp"
+
+using rbdgrad::fuzz::verbose;
 
 namespace {
 
@@ -20,15 +23,8 @@ namespace server = rbdgrad::server;
 constexpr std::size_t kMaxModels = 8;
 constexpr std::size_t kMaxScenes = 8;
 
-// RBDGRAD_FUZZ_VERBOSE=1: each input's outcome on stderr (to see what a reproducer does)
-bool verbose() {
-  static const bool on = std::getenv("RBDGRAD_FUZZ_VERBOSE") != nullptr;
-  return on;
-}
-
 [[noreturn]] void fail(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "config_fuzzer: %s: %s\n", what, detail.c_str());
-  std::abort();
+  rbdgrad::fuzz::fail("config_fuzzer", what, detail);
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/slice.h>
 
+#include "fuzz_support.hpp"
 #include "grpc_status.hpp"
 #include "model_registry.hpp"
 #include "proto_enums.hpp"
@@ -35,36 +36,21 @@
 
 extern "C" const rbdgrad_plugin_api* rbdgrad_plugin_entry(std::uint32_t host_api_major, std::uint32_t host_api_minor);
 
+using rbdgrad::fuzz::verbose;
+
 namespace {
 
 namespace server = rbdgrad::server;
 namespace v1 = rbdgrad::v1;
 using rbdgrad::Status;
 
-// RBDGRAD_FUZZ_VERBOSE=1: each input's outcome on stderr (to see what a reproducer does)
-bool verbose() {
-  static const bool on = std::getenv("RBDGRAD_FUZZ_VERBOSE") != nullptr;
-  return on;
-}
 
 [[noreturn]] void fail(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "request_fuzzer: %s: %s\n", what, detail.c_str());
-  std::abort();
+  rbdgrad::fuzz::fail("request_fuzzer", what, detail);
 }
 
-struct PluginError {
-  std::uint32_t code = RBDGRAD_OK;
-  std::string message;
-};
-
-PluginError take(const rbdgrad_plugin_api& api, rbdgrad_error* e) {
-  PluginError out;
-  if (e == nullptr) return out;
-  out.code = api.error_code(e);
-  out.message = api.error_message(e);
-  api.error_delete(e);
-  return out;
-}
+using rbdgrad::fuzz::PluginError;
+using rbdgrad::fuzz::take;
 
 // What the daemon holds after start-up: the models and scenes, and one CPU instance of each.
 struct Daemon {

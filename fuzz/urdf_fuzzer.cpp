@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_support.hpp"
 #include "common/model_desc.hpp"
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -21,36 +22,20 @@
 
 extern "C" const rbdgrad_plugin_api* rbdgrad_plugin_entry(std::uint32_t host_api_major, std::uint32_t host_api_minor);
 
+using rbdgrad::fuzz::verbose;
+
 namespace {
 
 // dynamics cost grows with nv^2 to nv^3: larger models take the loader and checks only
 constexpr int kMaxNvForDynamics = 64;
 
-// RBDGRAD_FUZZ_VERBOSE=1: each input's outcome on stderr (to see what a reproducer does)
-bool verbose() {
-  static const bool on = std::getenv("RBDGRAD_FUZZ_VERBOSE") != nullptr;
-  return on;
-}
 
 [[noreturn]] void fail(const char* what, const std::string& detail) {
-  std::fprintf(stderr, "urdf_fuzzer: %s: %s\n", what, detail.c_str());
-  std::abort();
+  rbdgrad::fuzz::fail("urdf_fuzzer", what, detail);
 }
 
-// An error from the plugin table: its code and message, released as the ABI says.
-struct PluginError {
-  std::uint32_t code = RBDGRAD_OK;
-  std::string message;
-};
-
-PluginError take(const rbdgrad_plugin_api& api, rbdgrad_error* e) {
-  PluginError out;
-  if (e == nullptr) return out;
-  out.code = api.error_code(e);
-  out.message = api.error_message(e);
-  api.error_delete(e);
-  return out;
-}
+using rbdgrad::fuzz::PluginError;
+using rbdgrad::fuzz::take;
 
 std::size_t scalar_bytes(std::uint32_t precision) { return precision == RBDGRAD_PRECISION_F64 ? 8 : 4; }
 
