@@ -144,7 +144,9 @@ rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_insta
 }
 
 // The cycle model (host/latency_model.hpp) at its default clock: what the card would take, also
-// while the kernel runs as a C simulation (whose own time says nothing about the card's).
+// while the kernel runs as a C simulation (whose own time says nothing about the card's). The
+// columns are the instance's: a scene's plan with one derivative (or none) runs fewer column passes
+// and is predicted so; without a plan, both (the ABI's question is the whole gradient).
 rbdgrad_error* estimate_latency(const rbdgrad_instance* instance, std::uint32_t precision, std::uint32_t input_kind,
                                 std::uint64_t n, double* microseconds) {
   return guarded([&]() -> Status {
@@ -158,7 +160,7 @@ rbdgrad_error* estimate_latency(const rbdgrad_instance* instance, std::uint32_t 
     fpga::LatencyEstimate e;
     if (Status s = fpga::estimate_latency(instance->model, fpga::KernelTiming{}, static_cast<std::size_t>(n),
                                           input_kind == RBDGRAD_INPUT_TAU ? fpga::InputKind::kTau : fpga::InputKind::kQdd,
-                                          e);
+                                          instance->fpga->columns(), e);
         !s)
       return s;
     *microseconds = e.batch_us;

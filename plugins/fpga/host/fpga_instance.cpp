@@ -6,6 +6,7 @@
 #include "common/batch_view.hpp"
 #include "common/error.hpp"
 #include "host/axi_packing.hpp"
+#include "kernel/gradient_kernel.hpp"
 #include "rbdgrad/algorithm/minverse.hpp"
 #include "rbdgrad/fixed_point.hpp"
 
@@ -24,6 +25,15 @@ void set_status(const rbdgrad_batch& b, std::size_t k, std::int32_t code) {
 }
 
 }  // namespace
+
+unsigned kernel_columns(std::uint32_t outputs) {
+  return ((outputs & RBDGRAD_OUTPUT_DQDD_DQ) ? kColumnsDq : 0u) |
+         ((outputs & RBDGRAD_OUTPUT_DQDD_DQD) ? kColumnsDqd : 0u);
+}
+
+unsigned FpgaInstance::columns() const {
+  return plan_ ? kernel_columns(plan_->outputs) : (kColumnsDq | kColumnsDqd);
+}
 
 void FpgaInstance::Failures::add(std::size_t k, Status s) {
   if (count++ == 0) {
@@ -70,9 +80,9 @@ Status FpgaInstance::compute(const rbdgrad_batch* batch) {
   auto chunk_size = [&](std::size_t c) { return std::min(chunk_states_, n - c * chunk_states_); };
   // the kernel's mode: the input kind, and the column datapaths the batch's outputs do not need
   // bypassed (a scene's skips)
-  const int mode = (b.input_kind == RBDGRAD_INPUT_TAU ? kModeTauInput : 0) |
-                   ((b.outputs & RBDGRAD_OUTPUT_DQDD_DQ) ? 0 : kModeNoDq) |
-                   ((b.outputs & RBDGRAD_OUTPUT_DQDD_DQD) ? 0 : kModeNoDqd);
+  const unsigned columns = kernel_columns(b.outputs);
+  const int mode = (b.input_kind == RBDGRAD_INPUT_TAU ? kModeTauInput : 0) | ((columns & kColumnsDq) ? 0 : kModeNoDq) |
+                   ((columns & kColumnsDqd) ? 0 : kModeNoDqd);
 
   Failures failures;
   // double buffering: chunk c + 1 is packed and queued while chunk c computes; a slot is reused

@@ -27,6 +27,10 @@ namespace rbdgrad::fpga {
 inline constexpr std::uint32_t kFpgaOutputs =
     RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
 
+/// The kernel's column datapaths (kColumnsDq, kColumnsDqd of kernel/gradient_kernel.hpp) that the
+/// rbdgrad_output flags `outputs` need: a batch's set its mode word, a plan's its latency estimate.
+unsigned kernel_columns(std::uint32_t outputs);
+
 class FpgaInstance {
  public:
   /// \param model a validated model of at most kDeviceMaxNv joints whose constants fit Q16.16.
@@ -42,6 +46,10 @@ class FpgaInstance {
   /// fit) or in the kernel (its status word), gets RBDGRAD_ERROR_OUT_OF_RANGE in state_status, a
   /// singular M NUMERICAL; the error names the first failed state. Not reentrant.
   Status compute(const rbdgrad_batch* batch);
+
+  /// The column datapaths its batches run at most: the plan's (a scene's), or both without a plan
+  /// (each batch's outputs then choose). What estimate_latency predicts.
+  unsigned columns() const;
 
   const KernelRunner& runner() const { return *runner_; }
   std::size_t chunk_states() const { return chunk_states_; }

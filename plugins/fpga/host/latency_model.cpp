@@ -50,7 +50,7 @@ struct Depths {
 
 // How the loops run: as written, or with paper 000's parallelism (see the header).
 struct Schedule {
-  int column_passes;       // passes of the loops over the 2 nv columns
+  int column_passes;       // passes of the loops over the columns that run (0: none runs)
   bool overlap_body;       // a link's own values computed alongside its columns
   bool siblings_parallel;  // the sweeps cost one link per level of the tree
   bool pipeline_unmarked;  // loops without a pragma pipelined at II 1
@@ -69,7 +69,9 @@ Cycles forward_body(const Depths& d) {
 }
 
 // one pass of the forward sweep's column loop: column j's dv, da, df (the pass's columns side by
-// side). A root link's parent columns are zero: no read of them and no transform.
+// side). A root link's parent columns are zero: no read of them and no transform. The datapath is
+// the same for a column of q and of qd (their own terms are a move and an add at the same place,
+// and HLS builds one datapath for both, the range being the mode's, known only at run time).
 Cycles forward_column(const Depths& d, bool root) {
   const Cycles x = d.read + (root ? 0 : d.transform_motion());  // X dv_par, X da_par; v, h, Xv, Xa read
   const Cycles dv = x + d.add;                                 // + (X v_par) x S for q_i, + S for qd_i
@@ -82,7 +84,9 @@ Cycles forward_column(const Depths& d, bool root) {
 }
 
 // one pass of the backward sweep's column loop: dc = S^T df, and df_par += X^T df (+ X^T (S x* f)
-// for j = i) with the two transforms side by side. A root link only stores dc.
+// for j = i) with the two transforms side by side. A root link only stores dc. The j = i branch is
+// never taken in the qd columns, but it is in the datapath whichever range the mode selects: the
+// pass is counted as deep in both.
 Cycles backward_column(const Depths& d, bool root) {
   if (root) return d.read;
   const Cycles t = d.read + d.transform_force_back();
@@ -151,7 +155,11 @@ Sweeps rnea_gradient(const Depths& d, const Schedule& s, const std::vector<int>&
   return {sweep(level, fwd, s.siblings_parallel), sweep(level, bwd, s.siblings_parallel)};
 }
 
-// fd_gradient, phase by phase
+// fd_gradient, phase by phase. The columns that run change only the column loops' pass count
+// (s.column_passes): the three column loops (forward sweep, backward sweep, -M^-1 dc/du) run
+// ceil(k / U) passes each, so every phase with columns is its columnless part plus
+// column_passes times one pass. The output words do not change (the top writes zeros for the
+// columns left out), nor does anything outside those loops.
 PhaseCycles fd_gradient(const Depths& d, const Schedule& s, const KernelTiming& timing, InputKind input,
                         const std::vector<int>& parent, const std::vector<int>& level) {
   const int n = static_cast<int>(parent.size());
@@ -160,8 +168,12 @@ PhaseCycles fd_gradient(const Depths& d, const Schedule& s, const KernelTiming& 
   // (c R0 + s R0'; a prismatic joint's p0 + q R0 e_z is as deep)
   p.joint_transforms = (n - 1) * Cycles{timing.joint_transform_ii} + d.read + d.mul + d.add + d.iter;
   if (input == InputKind::kTau) {
-    // zeros, the whole first pass, bias = tau - c, then qdd_i = M^-1 row i . bias (rounded once)
-    const Sweeps first = rnea_gradient(d, s, parent, level);
+    // zeros, the first pass, bias = tau - c, then qdd_i = M^-1 row i . bias (rounded once). The
+    // first pass is the bias alone (rnea_gradient(..., 0u)): its column loops run no pass whatever
+    // the mode, since the second pass writes every column it computes.
+    Schedule bias = s;
+    bias.column_passes = 0;
+    const Sweeps first = rnea_gradient(d, bias, parent, level);
     p.qdd = element_loop(d, s, n, 0) + first.forward + first.backward + element_loop(d, s, n, d.read + d.add) +
             n * (dot(d, s, n) + d.add + d.iter);
   } else {
@@ -220,8 +232,10 @@ Status check_timing(const KernelTiming& timing) {
 }
 
 Status estimate_latency(const Model& model, const KernelTiming& timing, std::size_t n_states, InputKind input,
-                        LatencyEstimate& out) {
+                        unsigned columns, LatencyEstimate& out) {
   if (Status s = check_timing(timing); !s) return s;
+  if ((columns & ~kAllColumns) != 0)
+    return invalid_argument("columns is " + std::to_string(columns) + ": expected kColumnsDq, kColumnsDqd, both or 0");
   const int n = model.nv;
   if (n < 1) return invalid_argument("the model has no moving joint");
   if (n > kDeviceMaxNv)
@@ -243,12 +257,20 @@ Status estimate_latency(const Model& model, const KernelTiming& timing, std::siz
 
   const Depths d{timing.multiplier_cycles, timing.adder_cycles, timing.memory_read_cycles,
                  timing.loop_iteration_overhead_cycles};
-  const int columns = 2 * n;
-  const Schedule as_written{static_cast<int>(ceil_div(columns, timing.column_unroll)), false, false,
+  // the columns that run, as the kernel's loops take them: [begin, end) of the 2 nv columns (q
+  // then qd), nv for one derivative, none for qdd alone (begin n, end 0: a loop that does not
+  // start); with UNROLL factor U a loop over k of them runs ceil(k / U) passes, the last one with
+  // k mod U columns when U does not divide k, counted as long as a full one (the idle datapath
+  // does not shorten it)
+  const ColumnRange range(columns, n);
+  const int k = std::max(range.end - range.begin, 0);
+  const Schedule as_written{static_cast<int>(ceil_div(k, timing.column_unroll)), false, false,
                             timing.pipeline_unmarked_loops};
-  const Schedule ideal{1, true, true, timing.pipeline_unmarked_loops};
+  // idealised: every column its own datapath, one pass when any runs
+  const Schedule ideal{k > 0 ? 1 : 0, true, true, timing.pipeline_unmarked_loops};
 
   LatencyEstimate e;
+  e.column_passes = as_written.column_passes;
   e.phases = fd_gradient(d, as_written, timing, input, model.parent, level);
   e.cycles_per_gradient = e.phases.total();
   e.ideal_cycles_per_gradient = fd_gradient(d, ideal, timing, input, model.parent, level).total();

@@ -10,8 +10,10 @@
 //   adder levels);
 // - the loops over links are serial (each link needs its parent's values, and the code has no
 //   overlap of siblings), and within a link the body's values (v, a, f) come before the columns;
-// - the loops over the 2 nv columns of dc/du carry UNROLL factor = 2: ceil(2 nv / U) passes one
-//   after another, each as deep as one column's datapath (UNROLL stops HLS from pipelining them);
+// - the loops over the columns of dc/du carry UNROLL factor = 2 and run over the columns the mode
+//   selects (ColumnRange: 2 nv for both derivatives, nv for one, none for qdd alone): ceil(k / U)
+//   passes for k columns, one after another, each as deep as one column's datapath (UNROLL stops
+//   HLS from pipelining them); the column datapaths are the same whichever range runs;
 // - joint_transforms carries PIPELINE II = 1; the loops without a pragma (the dot products with
 //   M^-1, their rows, the element-wise loops over joints) run one iteration at a time unless
 //   KernelTiming::pipeline_unmarked_loops says otherwise;
@@ -29,6 +31,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "kernel/gradient_kernel.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/status.hpp"
 
@@ -43,8 +46,13 @@ inline constexpr int kKernelJointTransformII = 1;
 /// What the kernel's input u holds (the top function's mode bit kModeTauInput).
 enum class InputKind {
   kQdd,  // u = qdd: copied
-  kTau,  // u = tau: qdd = M^-1 (tau - c), with c from a first RNEA pass (the code runs its columns too)
+  kTau,  // u = tau: qdd = M^-1 (tau - c), with c from a first RNEA pass (the bias pass: no columns)
 };
+
+/// The column datapaths of the gradient that run (kernel/gradient_kernel.hpp): kColumnsDq for
+/// dqdd/dq, kColumnsDqd for dqdd/dqd, both (the full gradient), or 0 (qdd alone). The top
+/// function's mode bits kModeNoDq and kModeNoDqd leave the others out.
+inline constexpr unsigned kAllColumns = kColumnsDq | kColumnsDqd;
 
 /// The constants of the model. Defaults are for an Alveo-class card (U250/U280) at its default
 /// kernel clock; every one of them is an assumption until a Vitis HLS synthesis report (the
@@ -82,11 +90,11 @@ Status check_timing(const KernelTiming& timing);
 /// Cycles of one gradient, by phase of fd_gradient in the order it runs them.
 struct PhaseCycles {
   std::int64_t joint_transforms = 0;  // E and r of every joint from sin and cos of q
-  std::int64_t qdd = 0;               // tau: a first RNEA pass (its sweeps with their columns) and
+  std::int64_t qdd = 0;               // tau: a first RNEA pass (its sweeps without columns) and
                                       // M^-1 (tau - c); qdd: the copy of u
   std::int64_t forward_sweep = 0;     // Algorithm 5 lines 1-4: v, a, f and the columns dv, da, df
   std::int64_t backward_sweep = 0;    // lines 5-7: tau, dc/du and the forces into the parents
-  std::int64_t minv_product = 0;      // dqdd/du = -M^-1 dc/du
+  std::int64_t minv_product = 0;      // dqdd/du = -M^-1 dc/du, the columns that run
   std::int64_t total() const {
     return joint_transforms + qdd + forward_sweep + backward_sweep + minv_product;
   }
@@ -94,6 +102,8 @@ struct PhaseCycles {
 
 struct LatencyEstimate {
   PhaseCycles phases;                          // one gradient, the kernel as written
+  int column_passes = 0;                       // passes of each of the three column loops: ceil(k / U)
+                                               // for the k columns that run
   std::int64_t cycles_per_gradient = 0;        // phases.total(): compute only
   std::int64_t ideal_cycles_per_gradient = 0;  // the same operators, paper 000's parallelism (see above)
   std::int64_t transfer_cycles_per_state = 0;  // AXI: the state's input words in, its output words out
@@ -112,10 +122,19 @@ struct LatencyEstimate {
 /// \param[in] timing  checked as check_timing does.
 /// \param[in] n_states  states in the batch, at least 1.
 /// \param[in] input  what u holds; kTau runs a first RNEA pass.
+/// \param[in] columns  the column datapaths that run (kAllColumns, kColumnsDq, kColumnsDqd or 0), as
+///            the mode word sets them; the output words are the same (zeros for the others).
 /// \param[out] out  filled only on success.
-/// Errors: invalid_argument (a timing field, n_states 0, nv 0 or a parent array that is not a
-/// tree in depth-first order), failed_precondition (more joints than the kernel takes).
+/// Errors: invalid_argument (a timing field, n_states 0, nv 0, a parent array that is not a
+/// tree in depth-first order, or a column bit that is not one), failed_precondition (more joints
+/// than the kernel takes).
 Status estimate_latency(const Model& model, const KernelTiming& timing, std::size_t n_states, InputKind input,
-                        LatencyEstimate& out);
+                        unsigned columns, LatencyEstimate& out);
+
+/// The full gradient: both column sets.
+inline Status estimate_latency(const Model& model, const KernelTiming& timing, std::size_t n_states, InputKind input,
+                               LatencyEstimate& out) {
+  return estimate_latency(model, timing, n_states, input, kAllColumns, out);
+}
 
 }  // namespace rbdgrad::fpga

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../../support/test_models.hpp"
@@ -191,6 +192,37 @@ TEST(FpgaPluginEstimate, TheCycleModelOfABatch) {
   e = take(api(), api()->estimate_latency(instance.get(), RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, 0, &us));
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+}
+
+// A scene's plan sets the columns the cycle model counts: one derivative runs fewer column passes
+// and is predicted cheaper than the whole gradient, qdd alone cheaper still; without a plan, both.
+TEST(FpgaPluginEstimate, AScenesColumnsAreTheOnesPredicted) {
+  const Model model = load_embedded("iiwa14");
+  const std::pair<std::uint32_t, unsigned> plans[] = {
+      {RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_DQDD_DQ, fpga::kColumnsDq},
+      {RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_MINV, fpga::kColumnsDqd},
+      {kGradient, fpga::kAllColumns},
+      {RBDGRAD_OUTPUT_QDD, 0u}};
+  double full_us = 0;
+  ASSERT_FALSE(take(api(), api()->estimate_latency(csim_instance(plugin::ModelDesc(model)).get(),
+                                                   RBDGRAD_PRECISION_FIXED_Q16_16, RBDGRAD_INPUT_TAU, 64, &full_us)));
+  for (const auto& [outputs, columns] : plans) {
+    plugin::ModelDesc desc(model);
+    desc.set_plan(outputs, false, {});
+    InstancePtr scene = csim_instance(desc);
+    ASSERT_TRUE(scene);
+    for (const std::uint32_t input : {RBDGRAD_INPUT_TAU, RBDGRAD_INPUT_QDD}) {
+      double us = -1;
+      ASSERT_FALSE(take(api(), api()->estimate_latency(scene.get(), RBDGRAD_PRECISION_FIXED_Q16_16, input, 64, &us)));
+      fpga::LatencyEstimate e;
+      ASSERT_TRUE(fpga::estimate_latency(
+          model, fpga::KernelTiming{}, 64, input == RBDGRAD_INPUT_TAU ? fpga::InputKind::kTau : fpga::InputKind::kQdd,
+          columns, e));
+      EXPECT_DOUBLE_EQ(us, e.batch_us) << outputs;
+      if (input == RBDGRAD_INPUT_TAU && columns == fpga::kAllColumns) EXPECT_DOUBLE_EQ(us, full_us);
+      if (input == RBDGRAD_INPUT_TAU && columns != fpga::kAllColumns) EXPECT_LT(us, full_us) << outputs;
+    }
+  }
 }
 
 // Every robot, both inputs, several chunk sizes (one state per run, a remainder, one run): each

@@ -1,6 +1,6 @@
 // Tests for plugins/fpga/host/latency_model.cpp: a small case counted by hand, the structure of the
 // estimate (phases sum to the total, monotonic in nv and N, exactly inverse in the clock,
-// topology), the defaults against the kernel's pragmas, and the refusals.
+// topology, the columns that run), the defaults against the kernel's pragmas, and the refusals.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -30,6 +30,15 @@ LatencyEstimate estimate(const Model& model, const KernelTiming& timing, std::si
                          InputKind input = InputKind::kQdd) {
   LatencyEstimate e;
   const Status s = estimate_latency(model, timing, n_states, input, e);
+  EXPECT_TRUE(s.is_ok()) << s.to_string();
+  return e;
+}
+
+// The same with the column datapaths that run (the mode's kModeNoDq, kModeNoDqd).
+LatencyEstimate estimate_columns(const Model& model, const KernelTiming& timing, unsigned columns,
+                                 InputKind input = InputKind::kQdd) {
+  LatencyEstimate e;
+  const Status s = estimate_latency(model, timing, 1, input, columns, e);
   EXPECT_TRUE(s.is_ok()) << s.to_string();
   return e;
 }
@@ -94,13 +103,47 @@ TEST(FpgaLatencyModel, TwoJointChainByHand) {
   EXPECT_NEAR(e.batch_us, 5 + 0.3 + 16.32, 1e-12);
 }
 
-// From tau: zeros 2 (0 + 1) = 2; the first pass 240 + 91; bias 2 (3 + 2 + 1) = 12; qdd rows
-// 2 (22 + 2 (round) + 1) = 50: 395 in the qdd phase; 12 + 395 + 240 + 91 + 110 = 848.
+// From tau: zeros 2 (0 + 1) = 2; the first pass, the bias alone (rnea_gradient(..., 0u): no column
+// pass): forward root 1 + 45 = 46, joint 1 46: 92; backward joint 1 1 + 3 + 23 = 27, root 1 + 3 =
+// 4: 31; bias 2 (3 + 2 + 1) = 12; qdd rows 2 (22 + 2 (round) + 1) = 50: 187 in the qdd phase;
+// 12 + 187 + 240 + 91 + 110 = 640. (Before the kernel's first pass dropped its columns, it ran
+// them: 240 + 91 for it, 395 and 848.)
 TEST(FpgaLatencyModel, TwoJointChainFromTauByHand) {
   const LatencyEstimate e = estimate(topology({-1, 0}), hand_timing(), 1, InputKind::kTau);
-  EXPECT_EQ(e.phases.qdd, 395);
+  EXPECT_EQ(e.phases.qdd, 187);
   EXPECT_EQ(e.phases.forward_sweep, 240);
-  EXPECT_EQ(e.cycles_per_gradient, 848);
+  EXPECT_EQ(e.cycles_per_gradient, 640);
+}
+
+// One derivative: the loops over columns run nv = 2 of the 4 columns, ceil(2 / U) = 1 pass
+// instead of 2. Forward: root 1 + 45 + (27 + 1) = 74, joint 1 1 + 45 + (45 + 1) = 92: 166.
+// Backward: joint 1 1 + 3 + (25 + 1) + 23 = 53, root 1 + 3 + (3 + 1) = 8: 61. -M^-1 dc/du: one pass,
+// 1 + 2 x 27 = 55. 12 + 8 + 166 + 61 + 55 = 302. d/dq and d/dqd run the same datapath (its range is
+// the mode's, known at run time). No column (qdd alone): forward 92, backward 31, no product:
+// 12 + 8 + 92 + 31 = 143, and each pass of the three loops costs (461 - 143) / 2 = 159 = 302 - 143.
+// Idealised, one derivative is one pass as both are: 206; none: 143.
+TEST(FpgaLatencyModel, TwoJointChainWithOneDerivativeByHand) {
+  const Model chain = topology({-1, 0});
+  for (unsigned columns : {kColumnsDq, kColumnsDqd}) {
+    const LatencyEstimate e = estimate_columns(chain, hand_timing(), columns);
+    EXPECT_EQ(e.column_passes, 1) << columns;
+    EXPECT_EQ(e.phases.joint_transforms, 12) << columns;
+    EXPECT_EQ(e.phases.qdd, 8) << columns;
+    EXPECT_EQ(e.phases.forward_sweep, 166) << columns;
+    EXPECT_EQ(e.phases.backward_sweep, 61) << columns;
+    EXPECT_EQ(e.phases.minv_product, 55) << columns;
+    EXPECT_EQ(e.cycles_per_gradient, 302) << columns;
+    EXPECT_EQ(e.ideal_cycles_per_gradient, 206) << columns;
+    EXPECT_EQ(e.transfer_cycles_per_state, 45) << columns;  // the same words: zeros for the others
+  }
+  const LatencyEstimate none = estimate_columns(chain, hand_timing(), 0);
+  EXPECT_EQ(none.column_passes, 0);
+  EXPECT_EQ(none.phases.forward_sweep, 92);
+  EXPECT_EQ(none.phases.backward_sweep, 31);
+  EXPECT_EQ(none.phases.minv_product, 0);
+  EXPECT_EQ(none.cycles_per_gradient, 143);
+  EXPECT_EQ(none.ideal_cycles_per_gradient, 143);
+  EXPECT_EQ(estimate_columns(chain, hand_timing(), kAllColumns).column_passes, 2);
 }
 
 // Loops without a pragma pipelined: dot of 2 terms (2 - 1) 2 + (3 + 5 + 2) + 1 = 13; row
@@ -141,16 +184,91 @@ TEST(FpgaLatencyModel, PhasesSumToTheTotalOnEveryRobot) {
   }
 }
 
-// From tau the code runs the whole RNEA pass with its columns first: the qdd phase costs more
-// than the second pass's two sweeps.
-TEST(FpgaLatencyModel, TauInputRunsAFirstPass) {
+// From tau the code runs a first RNEA pass for the bias c, without its columns (the second pass
+// writes every column it computes): the qdd phase holds the sweeps of a pass with no column, plus
+// M^-1 (tau - c), and is the same whichever columns the second pass runs. It costs less than the
+// second pass's sweeps with both columns.
+TEST(FpgaLatencyModel, TauInputRunsAFirstPassWithoutColumns) {
   const Model model = testing::load_embedded("iiwa14");
   const LatencyEstimate qdd = estimate(model, KernelTiming{}, 1, InputKind::kQdd);
   const LatencyEstimate tau = estimate(model, KernelTiming{}, 1, InputKind::kTau);
+  const LatencyEstimate no_columns = estimate_columns(model, KernelTiming{}, 0, InputKind::kQdd);
   EXPECT_EQ(tau.phases.forward_sweep, qdd.phases.forward_sweep);
   EXPECT_EQ(tau.phases.backward_sweep, qdd.phases.backward_sweep);
-  EXPECT_GT(tau.phases.qdd, qdd.phases.forward_sweep + qdd.phases.backward_sweep);
-  EXPECT_GT(tau.cycles_per_gradient, qdd.cycles_per_gradient + qdd.phases.forward_sweep + qdd.phases.backward_sweep);
+  EXPECT_GT(tau.phases.qdd, no_columns.phases.forward_sweep + no_columns.phases.backward_sweep);
+  EXPECT_LT(tau.phases.qdd, qdd.phases.forward_sweep + qdd.phases.backward_sweep);
+  for (unsigned columns : {0u, kColumnsDq, kColumnsDqd})
+    EXPECT_EQ(estimate_columns(model, KernelTiming{}, columns, InputKind::kTau).phases.qdd, tau.phases.qdd) << columns;
+}
+
+// The columns change only the three column loops' pass count, ceil(k / U) for k columns: each of
+// their phases is its columnless part plus that many equal passes, and nothing else moves. So one
+// derivative (nv columns) costs ceil(nv / U) / ceil(2 nv / U) of both columns' share of those loops,
+// d/dq and d/dqd alike, and the saving is the passes it leaves out.
+TEST(FpgaLatencyModel, OneDerivativeRunsFewerColumnPasses) {
+  for (const char* robot : {"iiwa14", "panda", "talos_reduced", "hyq"}) {
+    const Model model = testing::load_embedded(robot);
+    const std::int64_t u = KernelTiming{}.column_unroll;
+    const std::int64_t p_both = (2 * model.nv + u - 1) / u, p_one = (model.nv + u - 1) / u;
+    for (InputKind input : {InputKind::kQdd, InputKind::kTau}) {
+      const LatencyEstimate both = estimate_columns(model, KernelTiming{}, kAllColumns, input);
+      const LatencyEstimate dq = estimate_columns(model, KernelTiming{}, kColumnsDq, input);
+      const LatencyEstimate dqd = estimate_columns(model, KernelTiming{}, kColumnsDqd, input);
+      const LatencyEstimate none = estimate_columns(model, KernelTiming{}, 0, input);
+      const LatencyEstimate full = estimate(model, KernelTiming{}, 1, input);
+      EXPECT_EQ(both.cycles_per_gradient, full.cycles_per_gradient) << robot;  // the default: both
+      EXPECT_EQ(both.column_passes, p_both) << robot;
+      EXPECT_EQ(dq.column_passes, p_one) << robot;
+      EXPECT_EQ(none.column_passes, 0) << robot;
+      EXPECT_EQ(dq.phases.total(), dq.cycles_per_gradient) << robot;
+      EXPECT_EQ(dqd.phases.total(), dqd.cycles_per_gradient) << robot;
+      EXPECT_LT(dq.cycles_per_gradient, both.cycles_per_gradient) << robot;
+      EXPECT_GT(dq.cycles_per_gradient, none.cycles_per_gradient) << robot;
+      for (const LatencyEstimate* e : {&dqd, &none}) {  // outside the column loops, nothing moves
+        EXPECT_EQ(e->phases.joint_transforms, both.phases.joint_transforms) << robot;
+        EXPECT_EQ(e->phases.qdd, both.phases.qdd) << robot;
+        EXPECT_EQ(e->transfer_cycles_per_state, both.transfer_cycles_per_state) << robot;
+      }
+      const std::pair<std::int64_t PhaseCycles::*, const char*> column_phases[] = {
+          {&PhaseCycles::forward_sweep, "forward"},
+          {&PhaseCycles::backward_sweep, "backward"},
+          {&PhaseCycles::minv_product, "-M^-1 dc/du"}};
+      for (const auto& [phase, name] : column_phases) {
+        EXPECT_EQ(dq.phases.*phase, dqd.phases.*phase) << robot << " " << name;
+        const std::int64_t share_both = both.phases.*phase - none.phases.*phase;
+        const std::int64_t share_one = dq.phases.*phase - none.phases.*phase;
+        EXPECT_GT(share_one, 0) << robot << " " << name;
+        EXPECT_EQ(share_both % p_both, 0) << robot << " " << name;  // equal passes
+        EXPECT_EQ(share_both * p_one, share_one * p_both) << robot << " " << name;
+      }
+      const std::int64_t share = both.cycles_per_gradient - none.cycles_per_gradient;
+      EXPECT_EQ((both.cycles_per_gradient - dq.cycles_per_gradient) * p_both, share * (p_both - p_one)) << robot;
+      // idealised: every column its own datapath, one pass for one derivative as for both
+      EXPECT_EQ(dq.ideal_cycles_per_gradient, both.ideal_cycles_per_gradient) << robot;
+      EXPECT_LT(none.ideal_cycles_per_gradient, dq.ideal_cycles_per_gradient) << robot;
+    }
+  }
+}
+
+// The saving is in passes: with a datapath per column (U >= 2 nv) both columns are one pass, and
+// one derivative is no cheaper; with U = nv it is one pass of two. The batch follows the gradient.
+TEST(FpgaLatencyModel, TheSavingIsInPasses) {
+  const Model model = testing::load_embedded("iiwa14");  // 14 columns
+  KernelTiming t;
+  t.column_unroll = 14;
+  EXPECT_EQ(estimate_columns(model, t, kColumnsDq).cycles_per_gradient,
+            estimate_columns(model, t, kAllColumns).cycles_per_gradient);
+  t.column_unroll = 7;
+  const LatencyEstimate both = estimate_columns(model, t, kAllColumns), dq = estimate_columns(model, t, kColumnsDq),
+                        none = estimate_columns(model, t, 0);
+  EXPECT_EQ(both.cycles_per_gradient - dq.cycles_per_gradient, dq.cycles_per_gradient - none.cycles_per_gradient);
+
+  LatencyEstimate b, d;
+  ASSERT_TRUE(estimate_latency(model, KernelTiming{}, 64, InputKind::kTau, kAllColumns, b).is_ok());
+  ASSERT_TRUE(estimate_latency(model, KernelTiming{}, 64, InputKind::kTau, kColumnsDqd, d).is_ok());
+  EXPECT_EQ(b.batch_cycles - d.batch_cycles, 64 * (b.cycles_per_gradient - d.cycles_per_gradient));
+  EXPECT_DOUBLE_EQ(b.host_transfer_us, d.host_transfer_us);
+  EXPECT_LT(d.batch_us, b.batch_us);
 }
 
 TEST(FpgaLatencyModel, MonotonicInJointsAndStates) {
@@ -292,6 +410,7 @@ TEST(FpgaLatencyModel, RefusesModelsAndBatchesItCannotEstimate) {
   expect_invalid(estimate_latency(topology({-1, 0}), KernelTiming{}, std::numeric_limits<std::size_t>::max(),
                                   InputKind::kQdd, e),
                  "too large");
+  expect_invalid(estimate_latency(topology({-1, 0}), KernelTiming{}, 1, InputKind::kQdd, 4u, e), "columns");
   EXPECT_EQ(e.cycles_per_gradient, -7);
 }
 
