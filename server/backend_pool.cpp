@@ -58,6 +58,7 @@ BackendPool::~BackendPool() = default;
 
 std::unique_ptr<BackendPool> BackendPool::create(const Options& options, const ModelRegistry& models) {
   std::unique_ptr<BackendPool> pool(new BackendPool());
+  pool->pool_options_ = options.pool;
   const auto load = [&](const std::string& path, const std::string& name,
                         const std::map<std::string, std::string>& plugin_options, std::int64_t instances) {
     if (Status s = pool->registry_.add(path, name); !s) {
@@ -108,24 +109,13 @@ void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, 
   Backend backend;
   backend.state = states_.size();
   backend.plugin = &plugin;
-  backend.pools.resize(models.size());
-  backend.model_reason.resize(models.size());
+  backend.pools.resize(models.capacity());
+  backend.model_reason.resize(models.capacity());
+  backend.instance_options = std::move(instance_options);
   for (const auto& model : models.models()) {
     const std::size_t m = model->index;
-    std::string reason;
-    if (state.info.max_nv != 0 && static_cast<std::uint32_t>(model->model.nv) > state.info.max_nv) {
-      reason = "the model has nv " + std::to_string(model->model.nv) + ", the backend takes at most " +
-               std::to_string(state.info.max_nv);
-    }
     std::vector<std::unique_ptr<PluginInstance>> instances;
-    for (std::size_t i = 0; reason.empty() && i < state.instances_per_model; ++i) {
-      std::unique_ptr<PluginInstance> instance;
-      if (Status s = plugin.create_instance(model->desc.desc(), instance_options, instance); !s) {
-        reason = s.message();
-      } else {
-        instances.push_back(std::move(instance));
-      }
-    }
+    std::string reason = make_instances(backend, state, *model, instances);
     if (!reason.empty()) {
       state.model_problems.push_back("model '" + model->name + "': " + reason);
       backend.model_reason[m] = std::move(reason);
@@ -144,6 +134,58 @@ void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, 
   }
   states_.push_back(std::move(state));
   backends_.push_back(std::move(backend));
+}
+
+std::string BackendPool::make_instances(const Backend& backend, const BackendState& state, const ServedModel& model,
+                                        std::vector<std::unique_ptr<PluginInstance>>& out) const {
+  if (state.info.max_nv != 0 && static_cast<std::uint32_t>(model.model.nv) > state.info.max_nv) {
+    return "the model has nv " + std::to_string(model.model.nv) + ", the backend takes at most " +
+           std::to_string(state.info.max_nv);
+  }
+  for (std::size_t i = 0; i < state.instances_per_model; ++i) {
+    std::unique_ptr<PluginInstance> instance;
+    if (Status s = backend.plugin->create_instance(model.desc.desc(), backend.instance_options, instance); !s) {
+      out.clear();
+      return s.message();
+    }
+    out.push_back(std::move(instance));
+  }
+  return "";
+}
+
+std::vector<std::string> BackendPool::add_model(const ServedModel& model) {
+  std::vector<std::string> problems;
+  std::vector<std::pair<BackendState*, std::string>> model_problems;
+  for (Backend& backend : backends_) {
+    BackendState& state = states_[backend.state];
+    // a backend that serves nothing stays unavailable, as it was reported at start-up
+    if (!state.ready) continue;
+    const std::size_t m = model.index;
+    if (m >= backend.pools.size() || backend.pools[m] != nullptr) {
+      problems.push_back("backend " + state.name + ": no place for model '" + model.name + "'");
+      continue;
+    }
+    std::vector<std::unique_ptr<PluginInstance>> instances;
+    std::string reason = make_instances(backend, state, model, instances);
+    if (!reason.empty()) {
+      model_problems.emplace_back(&state, "model '" + model.name + "': " + reason);
+      problems.push_back("backend " + state.name + ": " + reason);
+      backend.model_reason[m] = std::move(reason);
+      continue;
+    }
+    // state.description stays as the start-up instances gave it: requests read it meanwhile
+    backend.pools[m] = std::make_unique<InstancePool>(std::move(instances), pool_options_);
+  }
+  // a model no backend serves is not registered: nothing to report on it later
+  if (serves(model))
+    for (auto& [state, problem] : model_problems) state->model_problems.push_back(std::move(problem));
+  return problems;
+}
+
+bool BackendPool::serves(const ServedModel& model) const noexcept {
+  return std::any_of(backends_.begin(), backends_.end(), [&](const Backend& b) {
+    return model.index < b.pools.size() && b.pools[model.index] != nullptr;
+  });
 }
 
 std::size_t BackendPool::ready_count() const noexcept {

@@ -32,7 +32,9 @@ struct BackendState {
   bool ready = false;  // loaded, and serves at least one model
   std::string reason;  // why not ready; "" when ready
   PluginInfo info;     // what the plugin says it can do; meaningful when it loaded
-  // "model 'hyq': <why>" for each model this backend cannot serve (it serves the others)
+  // "model 'hyq': <why>" for each model this backend cannot serve (it serves the others); a scene
+  // registered later (add_model) is appended, by the one registering thread: read it at start-up
+  // or after the registration, not during one
   std::vector<std::string> model_problems;
   std::size_t instances_per_model = 0;  // instances created per served model
   std::string options;  // "threads=8": the instance options it was given, for the log
@@ -86,7 +88,18 @@ class BackendPool {
 
   /// Loads the plugins and creates the instances of every model on each. Never fails as a whole:
   /// every problem is recorded in backends(); ready_count() says whether anything can serve.
+  /// The per-model tables are sized for models.capacity(): scenes registered later (add_model).
   static std::unique_ptr<BackendPool> create(const Options& options, const ModelRegistry& models);
+
+  /// A scene registered while requests are served: each ready backend creates its instances of
+  /// `model` as at start-up (the same options, the model's plan through create_instance) before
+  /// `model` is published in the registry, so no request can reach them half made. A backend that
+  /// cannot serve it gets the reason in model_problems, as at start-up (unless no backend serves
+  /// it: then it is not registered). Returns those problems ("backend cuda: <why>"), empty when
+  /// every ready backend serves it. One caller at a time.
+  std::vector<std::string> add_model(const ServedModel& model);
+  /// Whether any backend has instances of `model`.
+  bool serves(const ServedModel& model) const noexcept;
 
   ~BackendPool();
   BackendPool(const BackendPool&) = delete;
@@ -123,14 +136,21 @@ class BackendPool {
   struct Backend {
     std::size_t state = 0;  // index in states_
     const Plugin* plugin = nullptr;
-    std::vector<std::unique_ptr<InstancePool>> pools;  // (models) nullptr where the model failed
-    std::vector<std::string> model_reason;             // (models) why, where pools[i] is null
+    // (models.capacity()) nullptr where the model failed or is not registered yet; an entry is
+    // written once, before its model is published (ModelRegistry::append), never reallocated
+    std::vector<std::unique_ptr<InstancePool>> pools;
+    std::vector<std::string> model_reason;  // (models.capacity()) why, where pools[i] is null
+    std::map<std::string, std::string> instance_options;  // what every instance was created with
   };
 
   BackendPool() = default;
   // instances_per_model: the plugin entry's `instances`, else Options::instances_per_model
   void add_backend(const Plugin& plugin, const std::map<std::string, std::string>& configured_options,
                    const Options& options, const ModelRegistry& models, std::size_t instances_per_model);
+  // the instances of `model` on `backend` (state.instances_per_model of them): "" and `out` set, or
+  // why not
+  std::string make_instances(const Backend& backend, const BackendState& state, const ServedModel& model,
+                             std::vector<std::unique_ptr<PluginInstance>>& out) const;
   const Backend* find(std::string_view name) const noexcept;
   // the backend named `name`, else the first of kind `name` that serves `model`, else the first of
   // that kind; null when none
@@ -138,6 +158,7 @@ class BackendPool {
   bool has_kind(std::string_view kind) const noexcept;
   Status unavailable_backend(std::string_view name) const;
 
+  InstancePool::Options pool_options_;
   PluginRegistry registry_;        // owns the loaded plugins
   std::vector<BackendState> states_;
   std::vector<Backend> backends_;  // the loaded ones

@@ -83,7 +83,7 @@ Status ComputeCall::prepare(const grpc::ByteBuffer& message, const ComputeContex
   if (!request_.scene().empty()) {
     model = context.models().find_scene(request_.scene());
     if (model == nullptr) {
-      const std::string& scenes = context.models().scene_names();
+      const std::string scenes = context.models().scene_names();
       return not_found(prefix_ + "scene '" + request_.scene() + "' is not configured (scenes: " +
                        (scenes.empty() ? std::string("none") : scenes) + ")");
     }

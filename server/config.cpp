@@ -293,7 +293,7 @@ class Parser {
     if (Status s = check_keys("limits", node,
                               {"max_states_per_request", "max_message_bytes", "max_concurrent_requests",
                                "max_queue_delay_us", "client_requests_per_second", "client_burst",
-                               "client_max_concurrent"});
+                               "client_max_concurrent", "max_registered_scenes"});
         !s) {
       return s;
     }
@@ -309,6 +309,7 @@ class Parser {
         {"max_queue_delay_us", 0, 10'000'000, &out.max_queue_delay_us},
         {"client_burst", 0, kMaxInt32, &out.client_burst},
         {"client_max_concurrent", 0, kMaxInt32, &out.client_max_concurrent},
+        {"max_registered_scenes", 0, 4096, &out.max_registered_scenes},
     };
     for (const Field& f : fields) {
       if (!node[f.name]) continue;
@@ -652,7 +653,7 @@ std::string describe(const ServerConfig& cfg) {
      << ", max_concurrent_requests " << cfg.limits.max_concurrent_requests << ", max_queue_delay_us "
      << cfg.limits.max_queue_delay_us << ", per client: " << cfg.limits.client_requests_per_second
      << " requests/s (0 = unlimited), burst " << cfg.limits.client_burst << ", max_concurrent "
-     << cfg.limits.client_max_concurrent << "\n";
+     << cfg.limits.client_max_concurrent << ", max_registered_scenes " << cfg.limits.max_registered_scenes << "\n";
   os << "scheduler: policy " << cfg.scheduler.policy;
   if (cfg.scheduler.policy == "threshold")
     os << " (small_n " << cfg.scheduler.small_n << ", large_n " << cfg.scheduler.large_n << "; -1 = from calibration)";

@@ -73,7 +73,8 @@ struct ModelConfig {
 };
 
 // A scene (issue 8): a configured model reduced for one fixed problem and served as a model of its
-// own; requests name it with ComputeRequest.scene. Registered at start-up (server/scene.hpp).
+// own; requests name it with ComputeRequest.scene. Registered at start-up (server/scene.hpp), or
+// later through RegisterScene (server/scene_registrar.hpp).
 struct SceneConfig {
   // Name requests use. Required, unique among scenes and models. No default.
   std::string name;
@@ -141,6 +142,10 @@ struct LimitsConfig {
   // Compute requests in flight per client (unary and streamed). Default 0 = unlimited.
   // Range [0, 2^31-1].
   int64_t client_max_concurrent = 0;
+  // Scenes registered at run time (RegisterScene) on top of the configured ones; more are
+  // rejected RESOURCE_EXHAUSTED. Each costs its instances on every backend and its place is kept
+  // from start-up. Default 64. Range [0, 4096]; 0 = no registration.
+  int64_t max_registered_scenes = 64;
 
   bool operator==(const LimitsConfig&) const = default;
 };

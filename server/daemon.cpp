@@ -101,7 +101,11 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
                  cfg.auth.tokens_file, names);
   }
 
-  if (Status s = ModelRegistry::load(cfg.models, cfg.scenes, d->models_); !s) return s;
+  // places for the scenes registered later (RegisterScene), so that the registry never moves
+  if (Status s = ModelRegistry::load(cfg.models, cfg.scenes, d->models_,
+                                     static_cast<std::size_t>(cfg.limits.max_registered_scenes));
+      !s)
+    return s;
   for (const auto& m : d->models_.models()) {
     std::string summary = m->summary;
     // the name clients use, when it is not the robot's own
@@ -183,9 +187,12 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
                  rate > 0 ? fmt::format("{:g} requests/s (burst {:g})", rate, burst) : std::string("any request rate"),
                  limits.client_max_concurrent > 0 ? std::to_string(limits.client_max_concurrent) : "any number of");
   }
+  // a registered scene is no larger than its model: the message size above holds for it too
+  d->registrar_ = std::make_unique<SceneRegistrar>(d->models_, *d->backends_, *d->scheduler_,
+                                                   static_cast<std::size_t>(cfg.limits.max_registered_scenes));
   d->service_ = std::make_unique<DynamicsService>(d->models_, *d->backends_, *d->scheduler_, limits,
                                                   RBDGRAD_VERSION, cfg.fixed_point_fallback, d->metrics_.get(),
-                                                  d->coalescer_.get(), d->access_.get());
+                                                  d->coalescer_.get(), d->access_.get(), d->registrar_.get());
   out = std::move(d);
   return Status::ok();
 }

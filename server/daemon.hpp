@@ -20,8 +20,8 @@
 #include "dynamics_service.hpp"
 #include "listen_address.hpp"
 #include "metrics.hpp"
-#include "scheduler.hpp"
 #include "model_registry.hpp"
+#include "scene_registrar.hpp"
 #include "scheduler.hpp"
 #include "rbdgrad/status.hpp"
 
@@ -96,6 +96,7 @@ class Daemon {
   std::string tls_cert_pem_, tls_key_pem_, tls_client_ca_pem_;
   std::int64_t max_message_bytes_ = 0;
   std::unique_ptr<AccessControl> access_;  // before the service and the server, which use it
+  std::unique_ptr<SceneRegistrar> registrar_;  // before the service, which registers through it
   std::unique_ptr<DynamicsService> service_;
   // after the service: destroyed first, it hands what it holds to the pools (the daemon has
   // drained by then)

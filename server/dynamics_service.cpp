@@ -8,6 +8,7 @@
 
 #include "grpc_status.hpp"
 #include "proto_enums.hpp"
+#include "scene.hpp"
 
 namespace rbdgrad::server {
 namespace {
@@ -216,16 +217,15 @@ void describe_scheduling(const Scheduler& scheduler, const BackendPool& backends
 
 DynamicsService::DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                                  const LimitsConfig& limits, std::string version, std::string fixed_point_fallback,
-                                 Metrics* metrics, Coalescer* coalescer, AccessControl* access)
+                                 Metrics* metrics, Coalescer* coalescer, AccessControl* access,
+                                 SceneRegistrar* registrar)
     : access_(access),
       context_(models, backends, scheduler, limits, std::move(fixed_point_fallback), metrics, coalescer),
       scheduler_(scheduler),
+      registrar_(registrar),
       server_info_(describe_server(backends, limits, version)) {
   for (const auto& m : models.models()) {
-    if (m->scene) {
-      *list_scenes_.add_scenes() = describe_scene(*m);
-      continue;
-    }
+    if (m->scene) continue;
     v1::ModelSummary* s = list_models_.add_models();
     s->set_name(m->name);
     s->set_nv(static_cast<std::uint32_t>(m->model.nv));
@@ -306,7 +306,9 @@ grpc::ServerUnaryReactor* DynamicsService::ListScenes(grpc::CallbackServerContex
                                                       v1::ListScenesResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   if (!admit_call(context, reactor)) return reactor;
-  *response = list_scenes_;
+  // the configured ones, then the registered ones in their order
+  for (const auto& m : context_.models().models())
+    if (m->scene) *response->add_scenes() = describe_scene(*m);
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }
@@ -317,13 +319,38 @@ grpc::ServerUnaryReactor* DynamicsService::GetScene(grpc::CallbackServerContext*
   if (!admit_call(context, reactor)) return reactor;
   const ServedModel* scene = context_.models().find_scene(request->name());
   if (scene == nullptr) {
-    const std::string& names = context_.models().scene_names();
+    const std::string names = context_.models().scene_names();
     reactor->Finish(to_grpc_status(not_found("scene '" + request->name() + "' is not configured (scenes: " +
                                              (names.empty() ? std::string("none") : names) + ")")));
     return reactor;
   }
   *response = describe_scene(*scene);
   reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* DynamicsService::RegisterScene(grpc::CallbackServerContext* context,
+                                                         const v1::RegisterSceneRequest* request,
+                                                         v1::Scene* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!admit_call(context, reactor)) return reactor;
+  if (registrar_ == nullptr) {
+    reactor->Finish(grpc::Status(grpc::StatusCode::UNIMPLEMENTED, "this server registers no scenes"));
+    return reactor;
+  }
+  SceneConfig cfg;
+  if (Status s = scene_config_from_request(*request, cfg); !s) {
+    reactor->Finish(to_grpc_status(s));
+    return reactor;
+  }
+  const SceneRegistration r =
+      registrar_->register_scene(cfg, [](const std::string& line) { spdlog::info("{}", line); });
+  if (r.outcome == RegistrationOutcome::kAlreadyRegistered)
+    spdlog::debug("scene '{}' registered again: unchanged", cfg.name);
+  else if (r.scene == nullptr)
+    spdlog::info("scene registration refused: {}", r.status.message());
+  if (r.scene != nullptr) *response = describe_scene(*r.scene);
+  reactor->Finish(to_grpc_status(r));
   return reactor;
 }
 

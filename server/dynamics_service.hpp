@@ -17,6 +17,7 @@
 #include "compute_stream.hpp"
 #include "config.hpp"
 #include "model_registry.hpp"
+#include "scene_registrar.hpp"
 #include "scheduler.hpp"
 #include "rbdgrad/v1/dynamics.grpc.pb.h"
 
@@ -26,17 +27,20 @@ using DynamicsServiceBase = rbdgrad::v1::Dynamics::WithRawCallbackMethod_Compute
     rbdgrad::v1::Dynamics::WithRawCallbackMethod_ComputeStream<rbdgrad::v1::Dynamics::WithCallbackMethod_ListModels<
         rbdgrad::v1::Dynamics::WithCallbackMethod_GetModel<rbdgrad::v1::Dynamics::WithCallbackMethod_ListScenes<
             rbdgrad::v1::Dynamics::WithCallbackMethod_GetScene<rbdgrad::v1::Dynamics::WithCallbackMethod_GetServerInfo<
-                rbdgrad::v1::Dynamics::WithCallbackMethod_Calibrate<rbdgrad::v1::Dynamics::Service>>>>>>>>;
+                rbdgrad::v1::Dynamics::WithCallbackMethod_Calibrate<
+                    rbdgrad::v1::Dynamics::WithCallbackMethod_RegisterScene<rbdgrad::v1::Dynamics::Service>>>>>>>>>;
 
 class DynamicsService final : public DynamicsServiceBase {
  public:
-  /// `models`, `backends`, `scheduler`, `metrics` and `access` (each of the last two may be null)
-  /// must outlive the service; `version` is GetServerInfo's;
+  /// `models`, `backends`, `scheduler`, `metrics`, `access` and `registrar` (each of the last
+  /// three may be null) must outlive the service; `version` is GetServerInfo's;
   /// `fixed_point_fallback` is ServerConfig's ("" = none). `access` checks every call's token and
-  /// per-client limits first (null: no check).
+  /// per-client limits first (null: no check). `registrar` registers scenes (null: RegisterScene
+  /// is UNIMPLEMENTED).
   DynamicsService(const ModelRegistry& models, const BackendPool& backends, Scheduler& scheduler,
                   const LimitsConfig& limits, std::string version, std::string fixed_point_fallback = "",
-                  Metrics* metrics = nullptr, Coalescer* coalescer = nullptr, AccessControl* access = nullptr);
+                  Metrics* metrics = nullptr, Coalescer* coalescer = nullptr, AccessControl* access = nullptr,
+                  SceneRegistrar* registrar = nullptr);
 
   /// The daemon is stopping: new compute requests are refused (UNAVAILABLE), idle streams finish
   /// now, busy ones after their last response. Calls already accepted complete normally.
@@ -66,6 +70,12 @@ class DynamicsService final : public DynamicsServiceBase {
   grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
                                           const rbdgrad::v1::GetServerInfoRequest* request,
                                           rbdgrad::v1::GetServerInfoResponse* response) override;
+  // registers on the calling gRPC thread (SceneRegistrar), as Calibrate calibrates: the
+  // instances and the scene's calibration sweep (with calibrate "start" and nothing in the file)
+  // take about a second on the CPU
+  grpc::ServerUnaryReactor* RegisterScene(grpc::CallbackServerContext* context,
+                                          const rbdgrad::v1::RegisterSceneRequest* request,
+                                          rbdgrad::v1::Scene* response) override;
   // runs the calibration on the calling gRPC thread: an operator's call, seconds long
   grpc::ServerUnaryReactor* Calibrate(grpc::CallbackServerContext* context,
                                       const rbdgrad::v1::CalibrateRequest* request,
@@ -80,10 +90,10 @@ class DynamicsService final : public DynamicsServiceBase {
   ComputeContext context_;
   StreamRegistry streams_;
   Scheduler& scheduler_;        // Calibrate replaces its latency models
+  SceneRegistrar* const registrar_;  // null: no RegisterScene
   std::mutex calibrating_;      // one Calibrate at a time
-  // the answers that never change, built once
+  // the answers that never change, built once (scenes are listed at each call: they are added)
   rbdgrad::v1::ListModelsResponse list_models_;
-  rbdgrad::v1::ListScenesResponse list_scenes_;
   rbdgrad::v1::GetServerInfoResponse server_info_;
 };
 

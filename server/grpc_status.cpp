@@ -24,4 +24,17 @@ grpc::Status to_grpc_status(const Status& status) {
   return {to_grpc_code(status.code()), status.message()};
 }
 
+grpc::Status to_grpc_status(const SceneRegistration& registration) {
+  switch (registration.outcome) {
+    case RegistrationOutcome::kRegistered:
+    case RegistrationOutcome::kAlreadyRegistered: return grpc::Status::OK;
+    case RegistrationOutcome::kNameTaken:
+      return {grpc::StatusCode::ALREADY_EXISTS, registration.status.message()};
+    case RegistrationOutcome::kLimitReached:
+      return {grpc::StatusCode::RESOURCE_EXHAUSTED, registration.status.message()};
+    case RegistrationOutcome::kRefused: break;
+  }
+  return to_grpc_status(registration.status);
+}
+
 }  // namespace rbdgrad::server

@@ -6,6 +6,7 @@
 #include <grpcpp/support/status.h>
 
 #include "rbdgrad/status.hpp"
+#include "scene_registrar.hpp"
 
 namespace rbdgrad::server {
 
@@ -17,5 +18,10 @@ grpc::StatusCode to_grpc_code(StatusCode code) noexcept;
 
 /// The gRPC status with the mapped code and the message unchanged.
 grpc::Status to_grpc_status(const Status& status);
+
+/// RegisterScene's answer: OK when registered (now or before, the same definition), ALREADY_EXISTS
+/// for a name taken, RESOURCE_EXHAUSTED past limits.max_registered_scenes (codes core's Status
+/// does not have), else the refusal's status mapped as above; the message unchanged.
+grpc::Status to_grpc_status(const SceneRegistration& registration);
 
 }  // namespace rbdgrad::server

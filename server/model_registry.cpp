@@ -75,8 +75,18 @@ Status load_one(const ModelConfig& cfg, std::size_t index, std::unique_ptr<const
 
 }  // namespace
 
+ModelRegistry& ModelRegistry::operator=(ModelRegistry&& other) noexcept {
+  models_ = std::move(other.models_);
+  size_.store(other.size_.load());
+  loaded_ = other.loaded_;
+  names_ = std::move(other.names_);
+  other.size_.store(0);
+  other.loaded_ = 0;
+  return *this;
+}
+
 Status ModelRegistry::load(const std::vector<ModelConfig>& configs, const std::vector<SceneConfig>& scenes,
-                           ModelRegistry& out) {
+                           ModelRegistry& out, std::size_t registered) {
   if (configs.empty()) return invalid_argument("no models configured: the daemon needs at least one");
   ModelRegistry loaded;
   std::set<std::string> names;
@@ -89,42 +99,71 @@ Status ModelRegistry::load(const std::vector<ModelConfig>& configs, const std::v
     if (!loaded.names_.empty()) loaded.names_ += ", ";
     loaded.names_ += cfg.name;
     loaded.models_.push_back(std::move(model));
+    loaded.size_.store(loaded.models_.size());
   }
   for (const SceneConfig& cfg : scenes) {
     if (cfg.name.empty()) return invalid_argument("a scene has no name");
     if (!names.insert(cfg.name).second)
       return invalid_argument("scene name '" + cfg.name + "' is used twice, or by a model");
-    const ServedModel* base = loaded.find(cfg.model);
-    if (base == nullptr)
-      return not_found("scene '" + cfg.name + "': model '" + cfg.model + "' is not configured (models: " +
-                       loaded.names_ + ")");
-    Model model;
-    SceneInfo info;
-    if (Status s = make_scene(cfg, base->model, model, info); !s) return s;
-    const std::string origin = "scene of " + cfg.model + ", " + std::to_string(model.nv) + " of " +
-                               std::to_string(base->model.nv) + " joints";
-    if (!loaded.scene_names_.empty()) loaded.scene_names_ += ", ";
-    loaded.scene_names_ += cfg.name;
-    loaded.models_.push_back(std::make_unique<const ServedModel>(loaded.models_.size(), cfg.name, origin, base->source,
-                                                                 std::move(model), std::move(info)));
+    std::unique_ptr<const ServedModel> scene;
+    if (Status s = loaded.make_served_scene(cfg, loaded.models_.size(), scene); !s) return s;
+    loaded.models_.push_back(std::move(scene));
+    loaded.size_.store(loaded.models_.size());
   }
+  // the places of the scenes registered later: the vector never grows again, so readers may walk it
+  loaded.loaded_ = loaded.models_.size();
+  loaded.models_.resize(loaded.loaded_ + registered);
   out = std::move(loaded);
+  return Status::ok();
+}
+
+Status ModelRegistry::make_served_scene(const SceneConfig& cfg, std::size_t index,
+                                        std::unique_ptr<const ServedModel>& out) const {
+  const ServedModel* base = find(cfg.model);
+  if (base == nullptr)
+    return not_found("scene '" + cfg.name + "': model '" + cfg.model + "' is not configured (models: " + names_ + ")");
+  Model model;
+  SceneInfo info;
+  if (Status s = make_scene(cfg, base->model, model, info); !s) return s;
+  const std::string origin = "scene of " + cfg.model + ", " + std::to_string(model.nv) + " of " +
+                             std::to_string(base->model.nv) + " joints";
+  out = std::make_unique<const ServedModel>(index, cfg.name, origin, base->source, std::move(model), std::move(info));
+  return Status::ok();
+}
+
+Status ModelRegistry::append(std::unique_ptr<const ServedModel> model) {
+  std::lock_guard lock(append_);
+  const std::size_t n = size_.load(std::memory_order_relaxed);
+  if (n >= models_.size()) return failed_precondition("no place left for model '" + model->name + "'");
+  if (model->index != n)
+    return failed_precondition("model '" + model->name + "' was made for place " + std::to_string(model->index) +
+                               ", the next is " + std::to_string(n));
+  models_[n] = std::move(model);
+  // readers that see the new size see the model, and whatever was made for it before (its pools)
+  size_.store(n + 1, std::memory_order_release);
   return Status::ok();
 }
 
 const ServedModel* ModelRegistry::find(std::string_view name) const noexcept {
   // a handful of models: a linear scan beats hashing the name
-  for (const auto& m : models_) {
+  for (const auto& m : models()) {
     if (!m->scene && m->name == name) return m.get();
   }
   return nullptr;
 }
 
 const ServedModel* ModelRegistry::find_scene(std::string_view name) const noexcept {
-  for (const auto& m : models_) {
+  for (const auto& m : models()) {
     if (m->scene && m->name == name) return m.get();
   }
   return nullptr;
+}
+
+std::string ModelRegistry::scene_names() const {
+  std::string out;
+  for (const auto& m : models())
+    if (m->scene) out += (out.empty() ? "" : ", ") + m->name;
+  return out;
 }
 
 }  // namespace rbdgrad::server

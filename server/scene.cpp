@@ -1,8 +1,10 @@
 #include "scene.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <set>
+#include <sstream>
 
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -32,7 +34,83 @@ std::string joined(const std::vector<std::string>& names) {
   return out;
 }
 
+// "[text]"
+std::string in_brackets(const std::string& text) {
+  std::string out = "[";  // appended: g++ 12 warns falsely (-Wrestrict) on "[" + std::string
+  out += text;
+  out += "]";
+  return out;
+}
+
+// "[a, b]"
+std::string bracketed(const std::vector<std::string>& names) { return in_brackets(joined(names)); }
+
+// "[head_1_joint=0, head_2_joint=0.1]", sorted by joint
+std::string locks_text(std::vector<std::pair<std::string, double>> locks) {
+  std::sort(locks.begin(), locks.end());
+  std::vector<std::string> items;
+  for (const auto& [joint, value] : locks) {
+    std::ostringstream v;
+    v << value;
+    items.push_back(joint + "=" + v.str());
+  }
+  return bracketed(items);
+}
+
 }  // namespace
+
+Status scene_config_from_request(const v1::RegisterSceneRequest& request, SceneConfig& out) {
+  SceneConfig cfg;
+  cfg.name = request.name();
+  cfg.model = request.model();
+  if (request.locked_joints_size() != request.locked_values_size())
+    return invalid_argument("scene '" + cfg.name + "': locked_values has " +
+                            std::to_string(request.locked_values_size()) + " value(s) for " +
+                            std::to_string(request.locked_joints_size()) +
+                            " locked_joints: one value per locked joint");
+  for (int i = 0; i < request.locked_joints_size(); ++i)
+    cfg.locked_joints.emplace_back(request.locked_joints(i), request.locked_values(i));
+  cfg.gravity = !request.has_gravity() || request.gravity();
+  cfg.force_links.assign(request.force_links().begin(), request.force_links().end());
+  if (request.outputs_size() > 0) {
+    cfg.outputs.clear();
+    for (int i = 0; i < request.outputs_size(); ++i) {
+      const int o = request.outputs(i);
+      // OUTPUT_UNSPECIFIED, or a value this server does not know: make_scene names it unknown
+      cfg.outputs.push_back(o >= 1 && o <= 8 ? std::string(output_name(1u << (o - 1)))
+                            : v1::Output_IsValid(o) ? v1::Output_Name(static_cast<v1::Output>(o))
+                                                    : std::to_string(o));
+    }
+  }
+  cfg.minv = request.minv_supplied() ? "supplied" : "computed";
+  out = std::move(cfg);
+  return Status::ok();
+}
+
+std::string scene_differences(const SceneInfo& have, const SceneConfig& cfg) {
+  std::vector<std::string> diffs;
+  const auto differ = [&](const char* field, const std::string& registered, const std::string& asked) {
+    if (registered != asked) diffs.push_back(std::string(field) + ": registered " + registered + ", asked " + asked);
+  };
+  differ("model", "'" + have.model + "'", "'" + cfg.model + "'");
+  differ("locked_joints", locks_text(have.locked_joints), locks_text(cfg.locked_joints));
+  differ("gravity", have.gravity ? "on" : "off", cfg.gravity ? "on" : "off");
+  differ("force_links", bracketed(have.force_links), bracketed(cfg.force_links));
+  // outputs as a set; a name that is no output differs from every scene's
+  std::uint32_t asked = 0;
+  bool known = true;
+  for (const std::string& name : cfg.outputs) {
+    std::uint32_t flag = 0;
+    known = known && output_from_name(name, flag);
+    asked |= flag;
+  }
+  differ("outputs", in_brackets(output_names(have.outputs)),
+         known ? in_brackets(output_names(asked)) : bracketed(cfg.outputs));
+  differ("minv", have.minv_supplied ? "supplied" : "computed", cfg.minv);
+  std::string out;
+  for (const std::string& d : diffs) out += (out.empty() ? "" : "; ") + d;
+  return out;
+}
 
 bool output_from_name(std::string_view name, std::uint32_t& flag) {
   for (const NamedOutput& o : kOutputNames)

@@ -42,6 +42,18 @@ Status make_scene(const SceneConfig& cfg, const Model& base, Model& model, Scene
 /// field and why.
 Status apply_scene(const SceneInfo& scene, const std::string& name, int nv, v1::ComputeRequest& request);
 
+/// RegisterScene's request as a SceneConfig, so that a registered scene is checked as a configured
+/// one (make_scene): unset gravity is on, no outputs are SceneConfig's default, an output value
+/// the API does not have becomes a name make_scene refuses. invalid_argument when locked_values
+/// does not give one value per locked joint.
+Status scene_config_from_request(const v1::RegisterSceneRequest& request, SceneConfig& out);
+
+/// What `cfg` defines otherwise than the scene `have` (made from a definition of the same name):
+/// "gravity: registered on, asked off; force_links: registered [lf_foot], asked []", "" when the
+/// definitions are the same. Locked joints compare as a set of (joint, value), outputs as a set;
+/// force links in order (they are fext's order).
+std::string scene_differences(const SceneInfo& have, const SceneConfig& cfg);
+
 /// The output names of SceneConfig and GetScene ("dqdd_dq") and their flags.
 bool output_from_name(std::string_view name, std::uint32_t& flag);
 const char* output_name(std::uint32_t flag);

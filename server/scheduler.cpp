@@ -66,68 +66,109 @@ bool Scheduler::suspect(const BackendState& backend) const noexcept {
   return flag != nullptr && flag->load(std::memory_order_relaxed);
 }
 
-void Scheduler::calibrate(bool remeasure, const std::function<void(const std::string&)>& log) {
+bool Scheduler::calibrate_entry(const BackendState& backend, const ServedModel& model, std::uint32_t precision,
+                                const CalibrationTable& file, bool remeasure,
+                                const std::function<void(const std::string&)>& log, CalibrationEntry& entry,
+                                bool& measured) const {
+  InstancePool* pool = backends_.pool(backend.name, model);
+  if (pool == nullptr) return false;
+  CalibrationOptions options;
+  options.sizes.assign(config_.calibration_sizes.begin(), config_.calibration_sizes.end());
+  const std::string fingerprint = backend_fingerprint(backend) + "-" + model_fingerprint(model);
+  const std::string what = backend.name + " " + model.name + " " + precision_label(precision);
+  entry = CalibrationEntry{backend.name, model.name, precision, fingerprint, "", {}};
+  // the plugin's own model first: it describes hardware that timing here may not reach
+  const Status estimated = estimated_latency(pool->instance(0), precision, options, entry.latency);
+  if (estimated) {
+    entry.source = "the plugin's own model (estimate_latency)";
+  } else if (estimated.code() != StatusCode::kUnimplemented) {
+    log("calibration: " + what + ": " + estimated.message());
+    return false;
+  } else if (const CalibrationEntry* saved = file.find(backend.name, model.name, precision);
+             !remeasure && saved != nullptr && saved->fingerprint == fingerprint && !saved->latency.empty()) {
+    entry = *saved;
+  } else if (config_.calibrate == "off" && !remeasure) {
+    return false;  // off at start-up; an explicit Calibrate still measures
+  } else {
+    // the plugin's own batch limit
+    if (backend.info.max_batch != 0)
+      options.sizes.erase(std::remove_if(options.sizes.begin(), options.sizes.end(),
+                                         [&](std::uint64_t n) { return n > backend.info.max_batch; }),
+                          options.sizes.end());
+    // a pool is the backend's queue: measuring through it keeps the instance exclusive
+    const Status s = measure_latency(*pool, model, precision, options, entry.latency);
+    if (!s) {
+      log("calibration: " + what + ": not measured: " + s.message());
+      return false;
+    }
+    entry.source = "measured " + utc_now();
+    measured = true;
+  }
+  log("calibration: " + what + ": " + entry.latency.summary() + " (" + entry.source + ")");
+  return true;
+}
+
+CalibrationTable Scheduler::calibration_file(const std::function<void(const std::string&)>& log) const {
   CalibrationTable file;
   if (!config_.calibration_file.empty()) {
     const Status s = CalibrationTable::load(config_.calibration_file, file);
     if (!s && s.code() != StatusCode::kNotFound) log("calibration: " + s.message() + "; measuring anew");
   }
-  CalibrationOptions options;
-  options.sizes.assign(config_.calibration_sizes.begin(), config_.calibration_sizes.end());
+  return file;
+}
+
+void Scheduler::save_calibration(const CalibrationTable& file, const CalibrationTable& measured,
+                                 const std::function<void(const std::string&)>& log) const {
+  if (config_.calibration_file.empty()) return;
+  // keep what the file holds for backends and models not served this time
+  CalibrationTable merged = file;
+  for (const CalibrationEntry& e : measured.entries()) merged.set(e);
+  if (Status s = merged.save(config_.calibration_file); !s) log("calibration: " + s.message());
+}
+
+void Scheduler::calibrate(bool remeasure, const std::function<void(const std::string&)>& log) {
+  std::lock_guard calibrating(calibrating_);
+  const CalibrationTable file = calibration_file(log);
+  CalibrationTable table;
+  bool measured = false;
+  const auto models = models_.models();  // a scene registered meanwhile keeps its own entries (below)
+  for (const BackendState& backend : backends_.backends()) {
+    if (!backend.ready) continue;
+    for (const auto& model : models) {
+      for (std::uint32_t precision : kPrecisionOrder) {
+        if ((backend.info.precisions & precision) == 0) continue;
+        CalibrationEntry entry;
+        if (calibrate_entry(backend, *model, precision, file, remeasure, log, entry, measured))
+          table.set(std::move(entry));
+      }
+    }
+  }
+  if (measured) save_calibration(file, table, log);
+  std::unique_lock lock(mutex_);
+  // the entries of a scene registered after `models` was taken, which this run did not visit
+  for (const CalibrationEntry& e : table_.entries()) {
+    const bool visited = std::any_of(models.begin(), models.end(), [&](const auto& m) { return m->name == e.model; });
+    if (!visited) table.set(e);
+  }
+  table_ = std::move(table);
+}
+
+void Scheduler::calibrate_model(const ServedModel& model, const std::function<void(const std::string&)>& log) {
+  std::lock_guard calibrating(calibrating_);
+  const CalibrationTable file = calibration_file(log);
   CalibrationTable table;
   bool measured = false;
   for (const BackendState& backend : backends_.backends()) {
     if (!backend.ready) continue;
-    const std::string hardware = backend_fingerprint(backend);
-    for (const auto& model : models_.models()) {
-      InstancePool* pool = backends_.pool(backend.name, *model);
-      if (pool == nullptr) continue;
-      const std::string fingerprint = hardware + "-" + model_fingerprint(*model);
-      for (std::uint32_t precision : kPrecisionOrder) {
-        if ((backend.info.precisions & precision) == 0) continue;
-        const std::string what = backend.name + " " + model->name + " " + precision_label(precision);
-        CalibrationEntry entry{backend.name, model->name, precision, fingerprint, "", {}};
-        // the plugin's own model first: it describes hardware that timing here may not reach
-        const Status estimated = estimated_latency(pool->instance(0), precision, options, entry.latency);
-        if (estimated) {
-          entry.source = "the plugin's own model (estimate_latency)";
-        } else if (estimated.code() != StatusCode::kUnimplemented) {
-          log("calibration: " + what + ": " + estimated.message());
-          continue;
-        } else if (const CalibrationEntry* saved = file.find(backend.name, model->name, precision);
-                   !remeasure && saved != nullptr && saved->fingerprint == fingerprint && !saved->latency.empty()) {
-          entry = *saved;
-        } else if (config_.calibrate == "off" && !remeasure) {
-          continue;  // off at start-up; an explicit Calibrate still measures
-        } else {
-          // the plugin's own batch limit
-          CalibrationOptions o = options;
-          if (backend.info.max_batch != 0)
-            o.sizes.erase(std::remove_if(o.sizes.begin(), o.sizes.end(),
-                                         [&](std::uint64_t n) { return n > backend.info.max_batch; }),
-                          o.sizes.end());
-          // a pool is the backend's queue: measuring through it keeps the instance exclusive
-          const Status s = measure_latency(*pool, *model, precision, o, entry.latency);
-          if (!s) {
-            log("calibration: " + what + ": not measured: " + s.message());
-            continue;
-          }
-          entry.source = "measured " + utc_now();
-          measured = true;
-        }
-        log("calibration: " + what + ": " + entry.latency.summary() + " (" + entry.source + ")");
-        table.set(std::move(entry));
-      }
+    for (std::uint32_t precision : kPrecisionOrder) {
+      if ((backend.info.precisions & precision) == 0) continue;
+      CalibrationEntry entry;
+      if (calibrate_entry(backend, model, precision, file, false, log, entry, measured)) table.set(std::move(entry));
     }
   }
-  if (measured && !config_.calibration_file.empty()) {
-    // keep what the file holds for backends and models not served this time
-    CalibrationTable merged = file;
-    for (const CalibrationEntry& e : table.entries()) merged.set(e);
-    if (Status s = merged.save(config_.calibration_file); !s) log("calibration: " + s.message());
-  }
+  if (measured) save_calibration(file, table, log);
   std::unique_lock lock(mutex_);
-  table_ = std::move(table);
+  for (const CalibrationEntry& e : table.entries()) table_.set(e);
 }
 
 std::vector<Scheduler::Candidate> Scheduler::candidates(const ServedModel& model, const RouteQuery& query) const {

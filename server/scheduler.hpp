@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <shared_mutex>
 #include <string>
 #include <string_view>
@@ -68,6 +69,13 @@ class Scheduler {
   /// step is reported through `log` (a line each); failures there are logged and skipped: a
   /// backend without a model is routed to only when no backend has one.
   void calibrate(bool remeasure, const std::function<void(const std::string&)>& log);
+
+  /// The same for one model, a scene being registered (scene_registrar.hpp): its latency models
+  /// come the way the start-up's do (the file's while their fingerprints hold, the plugins' own,
+  /// else measured on its pools unless calibrate is "off"), and are added to the others. Call it
+  /// before the scene is published, while its pools are idle. Not concurrent with calibrate: each
+  /// waits for the other.
+  void calibrate_model(const ServedModel& model, const std::function<void(const std::string&)>& log);
 
   /// Chooses the backend (by the hint or the policy) and precision of a request, and the
   /// prediction of its compute time (0 without a model) and of its wait for an instance.
@@ -132,6 +140,17 @@ class Scheduler {
                                                                        std::uint64_t max_n) const;
   std::pair<std::int64_t, std::int64_t> thresholds_locked(const ServedModel& model) const;
 
+  // one (backend, model, precision): the plugin's own model, the file's entry, or measured; false
+  // (and why, logged) when there is none; `measured` set when it was timed
+  bool calibrate_entry(const BackendState& backend, const ServedModel& model, std::uint32_t precision,
+                       const CalibrationTable& file, bool remeasure, const std::function<void(const std::string&)>& log,
+                       CalibrationEntry& entry, bool& measured) const;
+  // config_.calibration_file's entries (none when unset or unreadable, said through `log`)
+  CalibrationTable calibration_file(const std::function<void(const std::string&)>& log) const;
+  // rewrites the file: its entries, replaced by `measured`'s
+  void save_calibration(const CalibrationTable& file, const CalibrationTable& measured,
+                        const std::function<void(const std::string&)>& log) const;
+
   // the flag of `backend` in suspect_, or null for a state that is not the pool's
   std::atomic<bool>* suspect_flag(const BackendState& backend) const noexcept;
 
@@ -140,6 +159,7 @@ class Scheduler {
   const SchedulerConfig config_;
   // (backends_.backends()) the suspect marks, by index; lock-free for the request path
   std::unique_ptr<std::atomic<bool>[]> suspect_;
+  std::mutex calibrating_;           // one calibration (calibrate, calibrate_model) at a time
   mutable std::shared_mutex mutex_;  // guards table_ (calibrate writes it, routing reads)
   CalibrationTable table_;
 };

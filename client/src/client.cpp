@@ -421,6 +421,17 @@ RpcStatus Client::get_scene(const std::string& name, SceneDescription& out,
   return st;
 }
 
+RpcStatus Client::register_scene(const SceneDefinition& scene, SceneDescription& out,
+                                 std::optional<std::chrono::nanoseconds> timeout) const {
+  // retried like the others: registering the same definition again is answered OK
+  v1::RegisterSceneRequest request;
+  if (RpcStatus st = detail::encode_scene_definition(scene, request); !st) return st;
+  v1::Scene response;
+  RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::RegisterScene, request, response, timeout);
+  if (st) out = detail::decode(response);
+  return st;
+}
+
 RpcStatus Client::server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout) const {
   v1::GetServerInfoResponse response;
   RpcStatus st = unary(*impl_, &v1::Dynamics::Stub::GetServerInfo, v1::GetServerInfoRequest(), response, timeout);
@@ -499,6 +510,13 @@ std::vector<SceneDescription> Client::list_scenes(std::optional<std::chrono::nan
 SceneDescription Client::get_scene(const std::string& name, std::optional<std::chrono::nanoseconds> timeout) const {
   SceneDescription out;
   if (RpcStatus st = get_scene(name, out, timeout); !st) throw ClientError(std::move(st));
+  return out;
+}
+
+SceneDescription Client::register_scene(const SceneDefinition& scene,
+                                        std::optional<std::chrono::nanoseconds> timeout) const {
+  SceneDescription out;
+  if (RpcStatus st = register_scene(scene, out, timeout); !st) throw ClientError(std::move(st));
   return out;
 }
 

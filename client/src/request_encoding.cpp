@@ -29,11 +29,39 @@ ExpectedResult expected_result(const ComputeRequest& req) noexcept {
   return e;
 }
 
-RpcStatus encode_request(const ComputeRequest& req, v1::ComputeRequest& msg) {
-  constexpr std::uint32_t kKnownBits = 255;
-  if (const std::uint32_t unknown = req.outputs & ~kKnownBits; unknown != 0)
+namespace {
+
+constexpr std::uint32_t kKnownBits = 255;
+
+RpcStatus unknown_output_bits(std::uint32_t outputs) {
+  if (const std::uint32_t unknown = outputs & ~kKnownBits; unknown != 0)
     return {RpcCode::kInvalidArgument, "client: outputs has bits that name no output (" + std::to_string(unknown) +
                                            "; the outputs are the bits 1 to 128)"};
+  return RpcStatus::ok();
+}
+
+}  // namespace
+
+RpcStatus encode_scene_definition(const SceneDefinition& scene, v1::RegisterSceneRequest& msg) {
+  if (RpcStatus st = unknown_output_bits(scene.outputs); !st) return st;
+  msg.Clear();
+  msg.set_name(scene.name);
+  msg.set_model(scene.model);
+  for (const auto& [joint, value] : scene.locked_joints) {
+    msg.add_locked_joints(joint);
+    msg.add_locked_values(value);
+  }
+  msg.set_gravity(scene.gravity);
+  for (const std::string& link : scene.force_links) msg.add_force_links(link);
+  // none: the server's default (dqdd_dq, dqdd_dqd)
+  for (Output o : kEveryOutput)
+    if (scene.outputs & mask(o)) msg.add_outputs(output_to_proto(o));
+  msg.set_minv_supplied(scene.minv_supplied);
+  return RpcStatus::ok();
+}
+
+RpcStatus encode_request(const ComputeRequest& req, v1::ComputeRequest& msg) {
+  if (RpcStatus st = unknown_output_bits(req.outputs); !st) return st;
   msg.set_model(req.model);
   msg.set_scene(req.scene);
   msg.set_num_states(req.num_states);

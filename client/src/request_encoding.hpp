@@ -8,6 +8,7 @@
 
 #include "rbdgrad/compute_types.hpp"
 #include "rbdgrad/rpc_status.hpp"
+#include "rbdgrad/service_info.hpp"
 #include "rbdgrad/v1/dynamics.pb.h"
 
 namespace rbdgrad::detail {
@@ -26,6 +27,10 @@ ExpectedResult expected_result(const ComputeRequest& req) noexcept;
 /// cannot be sent at all: output bits that name no output.
 /// \return ok, or INVALID_ARGUMENT "client: ..." (then nothing should be sent).
 RpcStatus encode_request(const ComputeRequest& req, v1::ComputeRequest& msg);
+
+/// Fills `msg` from `scene`. Only checks what cannot be sent: output bits that name no output.
+/// \return ok, or INVALID_ARGUMENT "client: ..." (then nothing should be sent).
+RpcStatus encode_scene_definition(const SceneDefinition& scene, v1::RegisterSceneRequest& msg);
 
 RpcStatus from_grpc(const grpc::Status& status);
 

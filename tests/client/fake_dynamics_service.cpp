@@ -211,6 +211,24 @@ grpc::Status FakeDynamicsService::GetScene(grpc::ServerContext*, const v1::GetSc
   return grpc::Status::OK;
 }
 
+grpc::Status FakeDynamicsService::RegisterScene(grpc::ServerContext*, const v1::RegisterSceneRequest* req,
+                                                v1::Scene* resp) {
+  {
+    std::lock_guard lock(mutex_);
+    registrations_.push_back(*req);
+  }
+  if (grpc::Status st = injected(); !st.ok()) return st;
+  if (req->name() == "twolink") return {grpc::StatusCode::ALREADY_EXISTS, "'twolink' is the name of a model"};
+  *resp = reach_scene();
+  resp->set_name(req->name());
+  return grpc::Status::OK;
+}
+
+std::vector<v1::RegisterSceneRequest> FakeDynamicsService::registrations() const {
+  std::lock_guard lock(mutex_);
+  return registrations_;
+}
+
 grpc::Status FakeDynamicsService::GetModel(grpc::ServerContext*, const v1::GetModelRequest* req,
                                            v1::GetModelResponse* resp) {
   if (req->name() != "twolink") return {grpc::StatusCode::NOT_FOUND, "model '" + req->name() + "' is not loaded"};

@@ -50,6 +50,12 @@ class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
                           rbdgrad::v1::ListScenesResponse* resp) override;
   grpc::Status GetScene(grpc::ServerContext* ctx, const rbdgrad::v1::GetSceneRequest* req,
                         rbdgrad::v1::Scene* resp) override;
+  // records the request and answers "reach" under the request's name (ALREADY_EXISTS for the
+  // name "twolink", a model's); may fail as injected (fail_next)
+  grpc::Status RegisterScene(grpc::ServerContext* ctx, const rbdgrad::v1::RegisterSceneRequest* req,
+                             rbdgrad::v1::Scene* resp) override;
+  // The RegisterScene requests received so far (failed ones included), in order.
+  std::vector<rbdgrad::v1::RegisterSceneRequest> registrations() const;
 
   // Copies of the compute requests received so far (unary and stream), in arrival order.
   std::vector<rbdgrad::v1::ComputeRequest> received() const;
@@ -57,10 +63,10 @@ class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
   std::chrono::milliseconds last_time_left() const;
   int stream_count() const;
 
-  // The next `count` calls of Compute, ComputeStream, ListModels or GetServerInfo fail with `code`
-  // ("injected failure") before anything else.
+  // The next `count` calls of Compute, ComputeStream, ListModels, GetServerInfo or RegisterScene
+  // fail with `code` ("injected failure") before anything else.
   void fail_next(int count, grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE);
-  // When each call of those four arrived (failed ones included), in order.
+  // When each call of those five arrived (failed ones included), in order.
   std::vector<std::chrono::steady_clock::time_point> call_times() const;
 
  private:
@@ -75,6 +81,7 @@ class FakeDynamicsService final : public rbdgrad::v1::Dynamics::Service {
   grpc::StatusCode failure_code_ = grpc::StatusCode::UNAVAILABLE;
   std::vector<std::chrono::steady_clock::time_point> call_times_;
   std::vector<rbdgrad::v1::ComputeRequest> received_;
+  std::vector<rbdgrad::v1::RegisterSceneRequest> registrations_;
   std::chrono::milliseconds last_time_left_{0};
   int streams_ = 0;
 };

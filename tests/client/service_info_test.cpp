@@ -71,6 +71,78 @@ TEST(ClientServiceInfo, ScenesAsPlainStructs) {
   EXPECT_EQ(st.message(), "scene 'dance' is not configured");
 }
 
+TEST(ClientServiceInfo, RegisterSceneSendsTheDefinitionAndReturnsTheScene) {
+  FakeServer server;
+  Client client(server.address());
+  SceneDefinition def;
+  def.name = "reach2";
+  def.model = "twolink";
+  def.locked_joints = {{"wrist", 0.25}};
+  def.force_links = {"upper_arm"};
+  def.outputs = Output::kDqddDq | Output::kQdd;
+  def.minv_supplied = true;
+  const SceneDescription s = client.register_scene(def);
+  EXPECT_EQ(s.name, "reach2");
+  EXPECT_EQ(s.nv, 1);
+  ASSERT_EQ(s.joints.size(), 1u);
+  EXPECT_EQ(s.joints[0].name, "shoulder");
+
+  // defaults: gravity sent as on (unset would mean on too), no outputs = the server's default
+  SceneDefinition plain;
+  plain.name = "plain";
+  plain.model = "twolink";
+  SceneDescription ignored;
+  ASSERT_TRUE(client.register_scene(plain, ignored).is_ok());
+  const std::vector<v1::RegisterSceneRequest> got = server.service().registrations();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].name(), "reach2");
+  EXPECT_EQ(got[0].model(), "twolink");
+  ASSERT_EQ(got[0].locked_joints_size(), 1);
+  EXPECT_EQ(got[0].locked_joints(0), "wrist");
+  ASSERT_EQ(got[0].locked_values_size(), 1);
+  EXPECT_EQ(got[0].locked_values(0), 0.25);
+  EXPECT_TRUE(got[0].has_gravity());
+  EXPECT_TRUE(got[0].gravity());
+  ASSERT_EQ(got[0].force_links_size(), 1);
+  EXPECT_EQ(got[0].force_links(0), "upper_arm");
+  ASSERT_EQ(got[0].outputs_size(), 2);
+  EXPECT_EQ(got[0].outputs(0), v1::OUTPUT_QDD);
+  EXPECT_EQ(got[0].outputs(1), v1::OUTPUT_DQDD_DQ);
+  EXPECT_TRUE(got[0].minv_supplied());
+  EXPECT_EQ(got[1].outputs_size(), 0);
+  EXPECT_FALSE(got[1].minv_supplied());
+  plain.gravity = false;
+  ASSERT_TRUE(client.register_scene(plain, ignored).is_ok());
+  EXPECT_TRUE(server.service().registrations().back().has_gravity());
+  EXPECT_FALSE(server.service().registrations().back().gravity());
+
+  // the server's refusal, with its code; bits that name no output never leave the client
+  def.name = "twolink";
+  SceneDescription none;
+  RpcStatus st = client.register_scene(def, none);
+  EXPECT_EQ(st.code(), RpcCode::kAlreadyExists);
+  EXPECT_EQ(st.message(), "'twolink' is the name of a model");
+  def.outputs = 1u << 9;
+  st = client.register_scene(def, none);
+  EXPECT_EQ(st.code(), RpcCode::kInvalidArgument);
+  EXPECT_EQ(server.service().registrations().size(), 4u);
+  EXPECT_THROW(client.register_scene(def), ClientError);
+}
+
+TEST(ClientServiceInfo, RegisterSceneIsRetriedWhenUnavailable) {
+  FakeServer server;
+  Client client(server.address());
+  server.service().fail_next(2);
+  SceneDefinition def;
+  def.name = "again";
+  def.model = "twolink";
+  SceneDescription s;
+  const RpcStatus st = client.register_scene(def, s);
+  ASSERT_TRUE(st.is_ok()) << st.message();
+  EXPECT_EQ(s.name, "again");
+  EXPECT_EQ(server.service().registrations().size(), 3u) << "registering again is harmless: retried";
+}
+
 // A scene's request may leave the outputs to the scene: the result holds what the server sent.
 TEST(ClientServiceInfo, ASceneRequestWithoutOutputsGetsTheScenes) {
   FakeServer server;

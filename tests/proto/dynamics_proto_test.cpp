@@ -41,10 +41,11 @@ TEST(DynamicsProto, ATensorCarriesTheBatchAsOneBlockAndRoundTrips) {
   static_assert(sizeof(rbdgrad::v1::Dynamics::Stub) > 0);
 }
 
-TEST(DynamicsProto, TheServiceHasItsEightMethods) {
+TEST(DynamicsProto, TheServiceHasItsNineMethods) {
   const auto* service = rbdgrad::v1::ComputeRequest::descriptor()->file()->FindServiceByName("Dynamics");
   ASSERT_NE(service, nullptr);
-  EXPECT_EQ(service->method_count(), 8);
+  EXPECT_EQ(service->method_count(), 9);
+  EXPECT_NE(service->FindMethodByName("RegisterScene"), nullptr);
   EXPECT_NE(service->FindMethodByName("Calibrate"), nullptr);
   EXPECT_NE(service->FindMethodByName("ListScenes"), nullptr);
   EXPECT_NE(service->FindMethodByName("GetScene"), nullptr);

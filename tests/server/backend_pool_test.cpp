@@ -165,6 +165,48 @@ TEST_F(BackendPoolTest, AMissingBackendIsUnavailableWithTheReason) {
               StartsWith(std::string("backend fpga is not available: plugin ") + kMissingFpga + ": cannot load:"));
 }
 
+// A scene registered while serving (add_model): every ready backend makes its instances as at
+// start-up, and one that cannot serve it (the fake takes at most 8 joints) is reported as then.
+TEST_F(BackendPoolTest, AModelAddedLaterGetsInstancesOnEveryReadyBackendThatCanServeIt) {
+  ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt, {}}, {"hyq", "", "hyq", std::nullopt, {}}},
+                                  {}, models_, 2)
+                  .is_ok());
+  auto pool = make({{FAKE_OK_PATH, {}, 0, ""}, {kMissingFpga, {}, 0, ""}});
+  const BackendState* fake = state(*pool, "fake");
+  ASSERT_NE(fake, nullptr);
+  ASSERT_EQ(fake->model_problems.size(), 1u);  // hyq, at start-up
+
+  SceneConfig cfg;
+  cfg.name = "arm";
+  cfg.model = "iiwa14";
+  std::unique_ptr<const ServedModel> arm;
+  ASSERT_TRUE(models_.make_served_scene(cfg, models_.size(), arm).is_ok());
+  EXPECT_EQ(pool->pool("cpu", *arm), nullptr) << "nothing before add_model";
+  EXPECT_TRUE(pool->add_model(*arm).empty());
+  EXPECT_NE(pool->pool("cpu", *arm), nullptr);
+  EXPECT_NE(pool->pool("fake", *arm), nullptr);
+  ASSERT_TRUE(models_.append(std::move(arm)).is_ok());
+
+  cfg.name = "legs";
+  cfg.model = "hyq";
+  std::unique_ptr<const ServedModel> legs;
+  ASSERT_TRUE(models_.make_served_scene(cfg, models_.size(), legs).is_ok());
+  const std::vector<std::string> problems = pool->add_model(*legs);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_EQ(problems[0], "backend fake: the model has nv 12, the backend takes at most 8");
+  ASSERT_EQ(fake->model_problems.size(), 2u);
+  EXPECT_EQ(fake->model_problems[1], "model 'legs': the model has nv 12, the backend takes at most 8");
+  EXPECT_TRUE(pool->serves(*legs));
+  EXPECT_EQ(pool->pool("fake", *legs), nullptr);
+  Route route;
+  const Status s = pool->route(*legs, "fake", 0, route);
+  EXPECT_EQ(s.code(), StatusCode::kUnavailable);
+  EXPECT_EQ(s.message(),
+            "backend fake is not available for model 'legs': the model has nv 12, the backend takes at most 8");
+  ASSERT_TRUE(pool->route(*legs, "", 0, route).is_ok());
+  EXPECT_EQ(route.backend->name, "cpu");
+}
+
 TEST_F(BackendPoolTest, ABackendThatCannotCreateInstancesIsUnavailableNamingTheModel) {
   auto pool = make({{FAKE_CUDA_PATH, {{"bogus", "1"}}}});
   const BackendState* cuda = state(*pool, "cuda");

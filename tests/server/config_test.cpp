@@ -56,7 +56,7 @@ TEST(ServerConfigTest, DefaultYamlEqualsBuiltInDefaults) {
   cfg.workers = 7;
   cfg.inline_max_states = 9;
   cfg.fixed_point_fallback = "";
-  cfg.limits = {1, 2, 3, 4, 5.5, 6, 7};
+  cfg.limits = {1, 2, 3, 4, 5.5, 6, 7, 8};
   cfg.log_level = LogLevel::kError;
   const Status s = parse_config(text, "default.yaml", cfg);
   ASSERT_TRUE(s.is_ok()) << s.to_string();

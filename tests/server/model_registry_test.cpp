@@ -111,5 +111,40 @@ TEST(ModelRegistry, ErrorsNameTheModelAndKeepTheOldContents) {
   EXPECT_EQ(registry.names(), "iiwa14");
 }
 
+TEST(ModelRegistry, RegisteredScenesAreAppendedInTheirKeptPlaces) {
+  ModelRegistry registry;
+  ASSERT_TRUE(ModelRegistry::load({embedded("iiwa14", "iiwa14")}, {}, registry, 2).is_ok());
+  EXPECT_EQ(registry.size(), 1u);
+  EXPECT_EQ(registry.capacity(), 3u);
+  const ServedModel* iiwa = registry.find("iiwa14");
+  SceneConfig cfg;
+  cfg.model = "iiwa14";
+  for (const char* name : {"a", "b", "c"}) {
+    cfg.name = name;
+    std::unique_ptr<const ServedModel> scene;
+    ASSERT_TRUE(registry.make_served_scene(cfg, registry.size(), scene).is_ok());
+    const Status s = registry.append(std::move(scene));
+    // the third has no place: the registry never grows past what load kept
+    EXPECT_EQ(s.is_ok(), cfg.name != "c") << s.to_string();
+  }
+  EXPECT_EQ(registry.size(), 3u);
+  EXPECT_EQ(registry.registered(), 2u);
+  EXPECT_EQ(registry.find("iiwa14"), iiwa) << "a model never moves";
+  ASSERT_NE(registry.find_scene("b"), nullptr);
+  EXPECT_EQ(registry.find_scene("b")->index, 2u);
+  EXPECT_EQ(registry.find("b"), nullptr) << "a scene is no model";
+  EXPECT_EQ(registry.scene_names(), "a, b");
+
+  // a scene made for another place is refused; so is one of an unknown model
+  ASSERT_TRUE(ModelRegistry::load({embedded("iiwa14", "iiwa14")}, {}, registry, 2).is_ok());
+  std::unique_ptr<const ServedModel> scene;
+  ASSERT_TRUE(registry.make_served_scene(cfg, 2, scene).is_ok());
+  EXPECT_EQ(registry.append(std::move(scene)).code(), StatusCode::kFailedPrecondition);
+  cfg.model = "panda";
+  const Status s = registry.make_served_scene(cfg, 1, scene);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_EQ(s.message(), "scene 'c': model 'panda' is not configured (models: iiwa14)");
+}
+
 }  // namespace
 }  // namespace rbdgrad::server

@@ -167,6 +167,64 @@ std::vector<S> values(const v1::Tensor& t) {
   return out;
 }
 
+TEST(Scene, ARegisterSceneRequestIsReadAsAConfiguredScene) {
+  v1::RegisterSceneRequest req;
+  req.set_name("walk");
+  req.set_model("talos");
+  SceneConfig cfg;
+  ASSERT_TRUE(scene_config_from_request(req, cfg).is_ok());
+  // unset gravity is on, no outputs are the configured default
+  EXPECT_EQ(cfg, (SceneConfig{"walk", "talos", {}, true, {}, {"dqdd_dq", "dqdd_dqd"}, "computed"}));
+  req.add_locked_joints("head_1_joint");
+  req.add_locked_values(0.5);
+  req.set_gravity(false);
+  req.add_force_links("leg_left_6_link");
+  req.add_outputs(v1::OUTPUT_QDD);
+  req.add_outputs(v1::OUTPUT_UNSPECIFIED);
+  req.set_minv_supplied(true);
+  ASSERT_TRUE(scene_config_from_request(req, cfg).is_ok());
+  EXPECT_EQ(cfg, (SceneConfig{"walk", "talos", {{"head_1_joint", 0.5}}, false, {"leg_left_6_link"},
+                              {"qdd", "OUTPUT_UNSPECIFIED"}, "supplied"}));
+  // which make_scene refuses, as in a configuration
+  ModelRegistry registry;
+  Status s = load_with(cfg, registry);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), HasSubstr("scene 'walk': unknown output 'OUTPUT_UNSPECIFIED'"));
+
+  req.add_locked_joints("head_2_joint");
+  s = scene_config_from_request(req, cfg);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "scene 'walk': locked_values has 1 value(s) for 2 locked_joints: one value per locked joint");
+}
+
+TEST(Scene, DifferencesNameEachFieldThatDiffers) {
+  ModelRegistry registry;
+  ASSERT_TRUE(load_with(humanoid_scene(), registry).is_ok());
+  const SceneInfo& have = *registry.find_scene("walk")->scene;
+  SceneConfig same = humanoid_scene();
+  EXPECT_EQ(scene_differences(have, same), "");
+  // the locks as a set, the outputs as a set
+  std::reverse(same.locked_joints.begin(), same.locked_joints.end());
+  std::reverse(same.outputs.begin(), same.outputs.end());
+  EXPECT_EQ(scene_differences(have, same), "");
+
+  SceneConfig other = humanoid_scene();
+  other.locked_joints[1].second = 0.2;
+  other.gravity = false;
+  other.force_links = {"leg_left_6_link"};
+  other.outputs = {"qdd"};
+  other.minv = "supplied";
+  EXPECT_EQ(scene_differences(have, other),
+            "locked_joints: registered [gripper_left_joint=0, gripper_right_joint=0, head_1_joint=0, "
+            "head_2_joint=0.1], asked [gripper_left_joint=0, gripper_right_joint=0, head_1_joint=0, "
+            "head_2_joint=0.2]; "
+            "gravity: registered on, asked off; force_links: registered [], asked [leg_left_6_link]; "
+            "outputs: registered [dqdd_dq, dqdd_dqd], asked [qdd]; minv: registered computed, asked supplied");
+  other = humanoid_scene();
+  other.model = "hyq";
+  EXPECT_EQ(scene_differences(have, other), "model: registered 'talos', asked 'hyq'");
+}
+
 TEST(ApplyScene, TheScenesOutputsWhenNoneAreListedElseASubset) {
   const SceneInfo scene = forces_on({});
   v1::ComputeRequest r;

@@ -361,6 +361,63 @@ YAML
   stop_daemon
 }
 
+# `rbdgrad register-scene`: a scene registered with the running daemon is listed and computes as
+# the configured scene of the same definition; again is fine, a conflict and bad scenes are not
+case_daemon_register_scene() {
+  expect_exit 2 "$RBDGRAD" register-scene --model hyq
+  expect_in "$WORK/stderr" "give the scene's NAME first"
+  expect_exit 2 "$RBDGRAD" register-scene trot
+  expect_in "$WORK/stderr" "--model is required"
+  expect_exit 2 "$RBDGRAD" register-scene trot --model hyq --lock lf_haa_joint
+  expect_in "$WORK/stderr" "--lock: 'lf_haa_joint' is not JOINT=VALUE"
+  expect_exit 2 "$RBDGRAD" register-scene trot --model hyq --outputs qdd,jacobian
+  expect_in "$WORK/stderr" "--outputs: unknown output 'jacobian'"
+  expect_exit 0 "$RBDGRAD" register-scene --help
+  expect_in "$WORK/stdout" "--force-links LIST"
+  cat > "$WORK/register.yaml" <<'YAML'
+models:
+  - {name: talos, embedded: talos_reduced}
+  - {name: hyq, embedded: hyq}
+scenes:
+  - {name: trot_cfg, model: hyq, gravity: false, force_links: [lf_lowerleg], outputs: [qdd, dqdd_dq]}
+scheduler: {calibrate: "off"}
+YAML
+  start_daemon --config "$WORK/register.yaml"
+  expect_exit 0 "$RBDGRAD" register-scene trot --server "$SERVER" --model hyq --no-gravity \
+    --force-links lf_lowerleg --outputs dqdd_dq,qdd
+  expect_in "$WORK/stdout" "registered trot: model hyq, 12 joints, gravity off, M^-1 computed"
+  expect_in "$WORK/stdout" "force links (fext order): lf_lowerleg"
+  # again, as after a reconnection
+  expect_exit 0 "$RBDGRAD" register-scene trot --server "$SERVER" --model hyq --no-gravity \
+    --force-links lf_lowerleg --outputs qdd,dqdd_dq
+  expect_exit 0 "$RBDGRAD" --server "$SERVER" register-scene walk --model talos \
+    --lock head_1_joint=0,head_2_joint=0.1,gripper_left_joint=0,gripper_right_joint=0 --minv-supplied
+  expect_in "$WORK/stdout" "registered walk: model talos, 28 joints, gravity on, M^-1 from each request"
+  expect_in "$WORK/stdout" "locked: head_1_joint=0 head_2_joint=0.1 gripper_left_joint=0 gripper_right_joint=0"
+  expect_exit 0 "$RBDGRAD" scenes --server "$SERVER"
+  expect_in "$WORK/stdout" "trot_cfg: model hyq, 12 joints, gravity off"
+  expect_in "$WORK/stdout" "trot: model hyq, 12 joints, gravity off"
+  expect_in "$WORK/stdout" "walk: model talos, 28 joints"
+  # the registered scene and its configured twin compute the same numbers
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --scene trot --n 3 --seed 5 --out "$WORK/trot.jsonl"
+  expect_in "$WORK/stdout" "3 of 3 states computed"
+  expect_exit 0 "$RBDGRAD" compute --server "$SERVER" --scene trot_cfg --n 3 --seed 5 --out "$WORK/trot_cfg.jsonl"
+  "$PYTHON" -c 'import json,sys; a,b=[[json.loads(l) for l in open(f)][1:] for f in sys.argv[1:]]; assert [(s["qdd"],s["dqdd_dq"]) for s in a]==[(s["qdd"],s["dqdd_dq"]) for s in b]' \
+    "$WORK/trot.jsonl" "$WORK/trot_cfg.jsonl" || fail "the registered scene's results differ from the configured one's"
+  # the name with another definition, a model's name, bad scenes
+  expect_exit 1 "$RBDGRAD" register-scene trot --server "$SERVER" --model hyq --force-links lf_lowerleg --outputs qdd,dqdd_dq
+  expect_in "$WORK/stderr" "ALREADY_EXISTS"
+  expect_in "$WORK/stderr" "gravity: registered off, asked on"
+  expect_exit 1 "$RBDGRAD" register-scene hyq --server "$SERVER" --model hyq
+  expect_in "$WORK/stderr" "'hyq' is the name of a model"
+  expect_exit 1 "$RBDGRAD" register-scene leap --server "$SERVER" --model hyq --lock lf_knee=0
+  expect_in "$WORK/stderr" "INVALID_ARGUMENT"
+  expect_in "$WORK/stderr" "scene 'leap': locked joint 'lf_knee': model 'hyq' has no such joint"
+  expect_exit 1 "$RBDGRAD" register-scene leap --server "$SERVER" --model ur5
+  expect_in "$WORK/stderr" "NOT_FOUND"
+  stop_daemon
+}
+
 # `rbdgrad health` and the connection options against a daemon with TLS and tokens (certificates
 # made here, by tests/support/make_test_certs.sh)
 case_daemon_health_tls_token() {

@@ -30,6 +30,7 @@ constexpr Command kCommands[] = {
     {"calibrate", rbdgrad::cli::kCalibrateSummary, rbdgrad::cli::run_calibrate_command},
     {"models", rbdgrad::cli::kModelsSummary, rbdgrad::cli::run_models_command},
     {"scenes", rbdgrad::cli::kScenesSummary, rbdgrad::cli::run_scenes_command},
+    {"register-scene", rbdgrad::cli::kRegisterSceneSummary, rbdgrad::cli::run_register_scene_command},
     {"compute", rbdgrad::cli::kComputeSummary, rbdgrad::cli::run_compute_command},
     {"health", rbdgrad::cli::kHealthSummary, rbdgrad::cli::run_health_command},
 };
@@ -42,10 +43,11 @@ void print_usage(std::ostream& os) {
      << "               <command> [options]\n"
      << "       rbdgrad <command> --help | rbdgrad --help | rbdgrad --version\n\n"
      << "Rigid-body dynamics and their derivatives (rbdgrad " << RBDGRAD_VERSION << ").\n"
-     << "info, calibrate, models, scenes, compute and health talk to the daemon rbdgradd at --server\n"
-     << "(default 127.0.0.1:50051; unix:/tmp/rbdgradd.sock is faster on the same host); eval and model\n"
-     << "compute in-process.\n\ncommands:\n";
-  for (const Command& c : kCommands) os << "  " << c.name << std::string(11 - c.name.size(), ' ') << c.summary << "\n";
+     << "info, calibrate, models, scenes, register-scene, compute and health talk to the daemon rbdgradd\n"
+     << "at --server (default 127.0.0.1:50051; unix:/tmp/rbdgradd.sock is faster on the same host);\n"
+     << "eval and model compute in-process.\n\ncommands:\n";
+  // names of at most 15 characters, padded to 16 columns
+  for (const Command& c : kCommands) os << "  " << c.name << std::string(16 - c.name.size(), ' ') << c.summary << "\n";
   os << "\nconnection options (before or after the command):\n"
      << "  --server ADDR       HOST:PORT or unix:PATH; default 127.0.0.1:50051\n"
      << "  --tls-ca FILE       TLS: the PEM CA certificate the server's certificate must chain to\n"

@@ -13,7 +13,8 @@
 // Calls: compute (sync: throwing, or returning an RpcStatus), compute_async (a std::future, or a
 // callback on a gRPC thread; no thread per call), ComputeSession (one long-lived stream for a
 // control loop: one request per step, responses in order, buffers reused), list_models,
-// get_model, list_scenes, get_scene, server_info, check_health. Every call has a deadline: its own
+// get_model, list_scenes, get_scene, register_scene, server_info, check_health. Every call has a
+// deadline: its own
 // timeout, else the client's default. ClientOptions::tls and bearer_token reach a daemon with TLS
 // (or mutual TLS) and token authentication.
 //
@@ -31,8 +32,9 @@
 // with jitter, up to retry.max_attempts attempts in all and never past the call's deadline: its
 // timeout covers every attempt and pause. With several servers round_robin sends the retry to a
 // server that is up. Every unary Dynamics call is a pure function of its request (Compute,
-// ListModels, GetModel, ListScenes, GetScene, GetServerInfo, and the health check), so sending it
-// twice is harmless; calibrate() is not retried (its UNAVAILABLE means another calibration runs).
+// ListModels, GetModel, ListScenes, GetScene, GetServerInfo, and the health check) or idempotent
+// (RegisterScene: the same definition twice is registered once), so sending it twice is
+// harmless; calibrate() is not retried (its UNAVAILABLE means another calibration runs).
 // Other codes are never retried. A ComputeSession is never retried or replayed: an error
 // (UNAVAILABLE included) ends the session, and the caller opens a new one (which round_robin
 // places on a server that is up) and decides what to send again. ComputeTimings::attempts and
@@ -239,6 +241,16 @@ class RBDGRAD_CLIENT_EXPORT Client {
   /// One scene: its joints, what it locks, gravity, force links and outputs. Throws ClientError
   /// (NOT_FOUND for an unknown scene).
   SceneDescription get_scene(const std::string& name, std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  /// Registers `scene` with the server while it runs (checked as a configured scene) and returns
+  /// it as get_scene does: its joints give the order of its requests' arrays and results. The
+  /// same definition again is registered once and answered the same (register after each
+  /// reconnection). Throws ClientError: ALREADY_EXISTS (the name is a model's, or a scene's
+  /// defined otherwise: the message says what differs), INVALID_ARGUMENT (a bad definition, the
+  /// message names the field), NOT_FOUND (an unknown model), RESOURCE_EXHAUSTED (the server's
+  /// limits.max_registered_scenes), FAILED_PRECONDITION (no backend can serve it). The server
+  /// creates the scene's instances and times them first: allow it a second or more on GPUs.
+  SceneDescription register_scene(const SceneDefinition& scene,
+                                  std::optional<std::chrono::nanoseconds> timeout = {}) const;
   /// The server's version, backends and limits. Throws ClientError.
   ServerInfo server_info(std::optional<std::chrono::nanoseconds> timeout = {}) const;
 
@@ -249,6 +261,8 @@ class RBDGRAD_CLIENT_EXPORT Client {
   RpcStatus list_scenes(std::vector<SceneDescription>& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus get_scene(const std::string& name, SceneDescription& out,
                       std::optional<std::chrono::nanoseconds> timeout = {}) const;
+  RpcStatus register_scene(const SceneDefinition& scene, SceneDescription& out,
+                           std::optional<std::chrono::nanoseconds> timeout = {}) const;
   RpcStatus server_info(ServerInfo& out, std::optional<std::chrono::nanoseconds> timeout = {}) const;
 
   /// The standard gRPC health check (grpc.health.v1.Health/Check) of `service` ("" = the whole

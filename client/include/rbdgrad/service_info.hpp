@@ -58,6 +58,18 @@ struct SceneDescription {
   bool minv_supplied = false;            // true: each request brings M^-1 (minv)
 };
 
+// Client::register_scene: a scene to register while the server runs, defined as one of its
+// configuration's `scenes` entries.
+struct SceneDefinition {
+  std::string name;   // unique among the server's models and scenes; required
+  std::string model;  // a model the server serves (Client::list_models); required
+  std::vector<std::pair<std::string, double>> locked_joints;  // the model's joints to hold, and where (rad or m)
+  bool gravity = true;                   // false: computed without gravity
+  std::vector<std::string> force_links;  // the links that take external forces, in fext's order
+  std::uint32_t outputs = 0;             // Output bits: what it computes; 0 = kDqddDq | kDqddDqd
+  bool minv_supplied = false;            // true: each request brings M^-1 (minv)
+};
+
 // One latency model of the server's scheduler: a backend's time per batch for one model and
 // precision, interpolated between its points.
 struct LatencyModelStatus {
