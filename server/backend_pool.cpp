@@ -112,6 +112,7 @@ void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, 
   backend.pools.resize(models.capacity());
   backend.model_reason.resize(models.capacity());
   backend.instance_options = std::move(instance_options);
+  bool described = false;
   for (const auto& model : models.models()) {
     const std::size_t m = model->index;
     std::vector<std::unique_ptr<PluginInstance>> instances;
@@ -122,7 +123,8 @@ void BackendPool::add_backend(const Plugin& plugin, const std::map<std::string, 
       continue;
     }
     // every instance of a backend gets the same options: the first one speaks for all
-    if (state.description.mode.empty() && state.description.device.empty()) {
+    if (!described) {
+      described = true;
       // a failure here is shown where the device would be, in the start-up log and server info
       if (Status s = instances.front()->describe(state.description); !s) state.description.device = s.message();
     }
@@ -186,6 +188,20 @@ bool BackendPool::serves(const ServedModel& model) const noexcept {
   return std::any_of(backends_.begin(), backends_.end(), [&](const Backend& b) {
     return model.index < b.pools.size() && b.pools[model.index] != nullptr;
   });
+}
+
+std::vector<std::string> BackendPool::model_details(const ServedModel& model) const {
+  std::vector<std::string> out;
+  for (const Backend& backend : backends_) {
+    if (model.index >= backend.pools.size() || backend.pools[model.index] == nullptr) continue;
+    const BackendState& state = states_[backend.state];
+    InstanceDescription d;
+    if (!backend.pools[model.index]->instance(0).describe(d) || d.detail.empty() ||
+        d.detail == state.description.detail)
+      continue;
+    out.push_back("backend " + state.name + ": " + d.detail);
+  }
+  return out;
 }
 
 std::size_t BackendPool::ready_count() const noexcept {

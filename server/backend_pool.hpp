@@ -100,6 +100,11 @@ class BackendPool {
   std::vector<std::string> add_model(const ServedModel& model);
   /// Whether any backend has instances of `model`.
   bool serves(const ServedModel& model) const noexcept;
+  /// What `model`'s instances say of how they run (InstanceDescription::detail, e.g. the CUDA
+  /// kernel compiled for a scene with its stages fixed), one line per backend where it differs
+  /// from what the backend's first instance said (BackendState::description, in the start-up
+  /// line): "backend cuda: <detail>". Any thread.
+  std::vector<std::string> model_details(const ServedModel& model) const;
 
   ~BackendPool();
   BackendPool(const BackendPool&) = delete;

@@ -130,6 +130,10 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
       spdlog::warn("backend {}: unavailable: {}", b.name, b.reason);
     }
   }
+  // the first instance speaks for its backend above; a model whose instances run otherwise (a
+  // scene's CUDA kernel with its stages fixed) says so here
+  for (const auto& m : d->models_.models())
+    for (const std::string& line : d->backends_->model_details(*m)) spdlog::info("model '{}' on {}", m->name, line);
   if (d->backends_->ready_count() == 0) return unavailable("no backend is available: nothing can serve requests");
 
   d->scheduler_ = std::make_unique<Scheduler>(*d->backends_, d->models_, cfg.scheduler);

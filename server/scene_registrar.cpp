@@ -58,6 +58,7 @@ SceneRegistration SceneRegistrar::register_scene(const SceneConfig& cfg,
     out.status = failed_precondition(where + ": no backend can serve it (" + problems + ")");
     return out;
   }
+  for (const std::string& line : backends_.model_details(*scene)) log(where + " on " + line);
   // its latency models, while its pools are still idle: nothing can reach them before append
   scheduler_.calibrate_model(*scene, log);
   const ServedModel* published = scene.get();

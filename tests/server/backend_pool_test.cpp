@@ -207,6 +207,17 @@ TEST_F(BackendPoolTest, AModelAddedLaterGetsInstancesOnEveryReadyBackendThatCanS
   EXPECT_EQ(route.backend->name, "cpu");
 }
 
+// The start-up line shows what a backend's first instance says of how it runs; the instances of
+// the other models say it where it differs (a scene's CUDA kernel with its stages fixed).
+TEST_F(BackendPoolTest, EachModelsInstancesSayHowTheyRunWhereTheyDifferFromTheFirst) {
+  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}}});
+  const BackendState* cuda = state(*pool, "cuda");
+  ASSERT_NE(cuda, nullptr);
+  EXPECT_EQ(cuda->description.detail, "kernel for nv 7");  // iiwa14's, the first model
+  EXPECT_TRUE(pool->model_details(*models_.find("iiwa14")).empty());
+  EXPECT_THAT(pool->model_details(*models_.find("hyq")), ::testing::ElementsAre("backend cuda: kernel for nv 12"));
+}
+
 TEST_F(BackendPoolTest, ABackendThatCannotCreateInstancesIsUnavailableNamingTheModel) {
   auto pool = make({{FAKE_CUDA_PATH, {{"bogus", "1"}}}});
   const BackendState* cuda = state(*pool, "cuda");

@@ -6,6 +6,8 @@
 //   q[0][0] == -999    the batch fails RBDGRAD_ERROR_UNAVAILABLE "device lost"
 //   q[0][0] == 4242    the batch takes 300 ms (an in-flight request for the shutdown tests)
 // Instance options: "device" (any value); other keys are RBDGRAD_ERROR_INVALID_ARGUMENT.
+// describe_instance: detail "kernel for nv N", the model's nv (as the real plugin names the kernel
+// each model got).
 #include <chrono>
 #include <cstring>
 #include <string>
@@ -20,6 +22,7 @@ struct rbdgrad_error {
 
 struct rbdgrad_instance {
   uint32_t nv;
+  std::string detail;
 };
 
 namespace {
@@ -55,7 +58,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* model, const rbdgrad_op
       return make_error(RBDGRAD_ERROR_INVALID_ARGUMENT, std::string("unknown option '") + options->keys[i] + "'");
     }
   }
-  *instance = new rbdgrad_instance{model->nv};
+  *instance = new rbdgrad_instance{model->nv, "kernel for nv " + std::to_string(model->nv)};
   return nullptr;
 }
 
@@ -93,13 +96,19 @@ rbdgrad_error* compute(rbdgrad_instance* instance, const rbdgrad_batch* batch) {
 }
 
 void destroy_instance(rbdgrad_instance* instance) { delete instance; }
+rbdgrad_error* describe_instance(const rbdgrad_instance* instance, rbdgrad_instance_info* info) {
+  info->mode = "";
+  info->device = "";
+  if (info->struct_size >= sizeof(rbdgrad_instance_info)) info->detail = instance->detail.c_str();
+  return nullptr;
+}
 uint32_t error_code(const rbdgrad_error* error) { return static_cast<uint32_t>(error->code); }
 const char* error_message(const rbdgrad_error* error) { return error->message.c_str(); }
 void error_delete(rbdgrad_error* error) { delete error; }
 
 const rbdgrad_plugin_api kTable = {sizeof(rbdgrad_plugin_api), RBDGRAD_PLUGIN_API_MAJOR, RBDGRAD_PLUGIN_API_MINOR,
                                    &get_info, &can_run, &create_instance, &compute, &destroy_instance,
-                                   &error_code, &error_message, &error_delete, nullptr, nullptr};
+                                   &error_code, &error_message, &error_delete, &describe_instance, nullptr};
 
 }  // namespace
 
