@@ -28,10 +28,13 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
-#include <functional>
-#include <vector>
+
+#include "cuda_probe_support.hpp"
 
 namespace {
+
+using rbdgrad::probe::median_us;
+using rbdgrad::probe::ok;
 
 __global__ void touch(float* x, int n) {
   for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) x[i] += 1.0f;
@@ -145,25 +148,6 @@ __global__ void resident(Mailbox* box, unsigned* done, Relay* relay, unsigned lo
       }
     }
   }
-}
-
-bool ok(cudaError_t e, const char* what) {
-  if (e == cudaSuccess) return true;
-  std::fprintf(stderr, "%s: %s\n", what, cudaGetErrorString(e));
-  return false;
-}
-
-double median_us(const std::function<void()>& call) {
-  for (int k = 0; k < 200; ++k) call();
-  std::vector<double> us;
-  us.reserve(2000);
-  for (int k = 0; k < 2000; ++k) {
-    const auto start = std::chrono::steady_clock::now();
-    call();
-    us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
-  }
-  std::nth_element(us.begin(), us.begin() + 1000, us.end());
-  return us[1000];
 }
 
 }  // namespace
