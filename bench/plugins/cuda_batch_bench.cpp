@@ -308,6 +308,14 @@ const bool registered = [] {
       add<float>("cuda_mapped", robot, n, mapped_io());
       add<double>("cuda_mapped", robot, n, mapped_io());
     }
+  // cuda_wide: the small batches' threads per state, the default's 256 against 512 (a wider group
+  // shortens the passes with more items than threads)
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (const int tps : {256, 512})
+      for (std::size_t n : {16, 64, 256}) {
+        add<float>("cuda_wide", robot, n, block_kernel(tps, 1));
+        add<double>("cuda_wide", robot, n, block_kernel(tps, 1));
+      }
   const std::pair<int, int> shapes[] = {{32, 1}, {64, 1}, {64, 2}, {128, 1}, {256, 1}};
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (const auto& [tps, spb] : shapes)
