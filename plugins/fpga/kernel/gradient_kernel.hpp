@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "hls_support.hpp"
 #include "rbdgrad/fixed_point.hpp"
@@ -41,6 +42,37 @@ struct ColumnRange {
       : begin((columns & kColumnsDq) ? 0 : n),
         end((columns & kColumnsDqd) ? 2 * n : ((columns & kColumnsDq) ? n : 0)) {}
 };
+
+// The columns fixed at compile time, passed where the functions below take `columns`: the kernel
+// built for one column set, which never had the other set's datapaths (issue 8's "build without
+// the stage"; the top function takes its columns at run time, from the mode word). The range
+// becomes a constant and a column's kind (q or qd) a literal, so the code that only the other set
+// runs is not generated. Same operations, in the same order, as with the same columns at run time.
+template <unsigned kColumns>
+using FixedColumns = std::integral_constant<unsigned, kColumns>;
+
+namespace detail {
+// whether column j (of the 2n, q then qd) is a d/dq column
+template <class Columns>
+constexpr bool is_q_column(Columns, int j, int n) {
+  return j < n;
+}
+// with the columns fixed to one set, a literal
+template <unsigned kColumns>
+constexpr bool is_q_column(FixedColumns<kColumns>, int j, int n) {
+  return kColumns == kColumnsDq ? true : (kColumns == kColumnsDqd ? false : j < n);
+}
+// whether column j is joint i's own d/dq column (j == i < n)
+template <class Columns>
+constexpr bool is_own_q_column(Columns, int j, int i) {
+  return j == i;
+}
+// never with the d/dqd columns fixed alone
+template <unsigned kColumns>
+constexpr bool is_own_q_column(FixedColumns<kColumns>, int j, int i) {
+  return kColumns != kColumnsDqd && j == i;
+}
+}  // namespace detail
 
 // The robot as the kernel sees it (constants of the bitstream on hardware): topology, each joint's
 // fixed transform from its parent's frame, and each body's spatial inertia in its own frame.
@@ -240,10 +272,11 @@ void joint_transforms(const RobotConstants<T, MaxNv>& robot, const T* q, const T
 // lines 1-4), then the backward sweep of forces and their derivatives (lines 5-7). Leaves tau in
 // `tau` and dc/du in s.dc.
 // columns: which datapaths run (kColumnsDq: the d/dq columns, kColumnsDqd: the d/dqd columns); the
-// others are skipped (ColumnRange) and their s.dc columns left as they were.
-template <class T, int MaxNv>
+// others are skipped (ColumnRange) and their s.dc columns left as they were. An unsigned is known at
+// run time; FixedColumns<...> fixes them at compile time.
+template <class T, int MaxNv, class Columns = unsigned>
 void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* qdd, KernelState<T, MaxNv>& s,
-                   T* tau, unsigned columns = kColumnsDq | kColumnsDqd) {
+                   T* tau, Columns columns = kColumnsDq | kColumnsDqd) {
   using namespace detail;
   const int n = robot.nv;
   const T zero(0);
@@ -276,7 +309,7 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
     // the columns of the derivatives: one datapath each, those `columns` selects
     for (int j = cols.begin; j < cols.end; ++j) {
       RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
-      const bool wrt_q = j < n;
+      const bool wrt_q = is_q_column(columns, j, n);
       const int joint = wrt_q ? j : j - n;
       T* dv = s.dv[i][j];
       T* da = s.da[i][j];
@@ -327,7 +360,7 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
       T t[6];
       transform_force_back(s.E[i], s.r[i], s.df[i][j], t);
       for (int k = 0; k < 6; ++k) s.df[par][j][k] += t[k];
-      if (j == i) {
+      if (is_own_q_column(columns, j, i)) {
         T Sf[6], u[6];
         cross_force_S(s.f[i], pr, Sf);
         transform_force_back(s.E[i], s.r[i], Sf, u);
@@ -345,11 +378,11 @@ void rnea_gradient(const RobotConstants<T, MaxNv>& robot, const T* qd, const T* 
 // The whole gradient of one state: qdd (from tau through M^-1, or given), then dc/du at it, then
 // dqdd/du = -M^-1 dc/du. Outputs row-major nv x nv; qdd_out receives the qdd used. `columns` says
 // which of dqdd_dq and dqdd_dqd are computed (a scene's skips: the other datapaths are bypassed and
-// their output left as it was).
-template <class T, int MaxNv>
+// their output left as it was; an unsigned at run time, FixedColumns<...> at compile time).
+template <class T, int MaxNv, class Columns = unsigned>
 void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin_q, const T* cos_q, const T* qd,
                  const T* u, bool tau_input, const T* minv, KernelState<T, MaxNv>& s, T* qdd_out, T* dqdd_dq,
-                 T* dqdd_dqd, unsigned columns = kColumnsDq | kColumnsDqd) {
+                 T* dqdd_dqd, Columns columns = kColumnsDq | kColumnsDqd) {
   const int n = robot.nv;
   joint_transforms(robot, q, sin_q, cos_q, s);
   T tau[MaxNv];
@@ -370,8 +403,9 @@ void fd_gradient(const RobotConstants<T, MaxNv>& robot, const T* q, const T* sin
   const ColumnRange cols(columns, n);
   for (int j = cols.begin; j < cols.end; ++j) {
     RBDGRAD_HLS_PRAGMA(HLS UNROLL factor = 2)
-    T* out = j < n ? dqdd_dq : dqdd_dqd;
-    const int col = j < n ? j : j - n;
+    const bool wrt_q = detail::is_q_column(columns, j, n);
+    T* out = wrt_q ? dqdd_dq : dqdd_dqd;
+    const int col = wrt_q ? j : j - n;
     for (int row = 0; row < n; ++row) out[row * n + col] = -detail::WideDot<T>::dot(minv + row * n, &s.dc[0][j], n, 2 * MaxNv);
   }
 }

@@ -24,25 +24,17 @@ void read_robot(const DeviceWord* w, RobotConstants<DeviceScalar, kDeviceMaxNv>&
   for (int e = 0; e < 3; ++e) robot.gravity[e] = scalar(joint[e]);
 }
 
-}  // namespace
-}  // namespace rbdgrad::fpga
-
-extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_words, const rbdgrad::fpga::DeviceWord* in,
-                                      rbdgrad::fpga::DeviceWord* out, int n_states, int mode) {
-  using namespace rbdgrad::fpga;
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = robot_words offset = slave bundle = gmem0)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = in offset = slave bundle = gmem0)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = out offset = slave bundle = gmem1)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = n_states)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = mode)
-  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = return)
+// The top function's body for one batch. Columns: an unsigned when the mode word sets them at run
+// time (rbdgrad_fpga_gradient), FixedColumns<...> when they are fixed at compile time
+// (gradient_fixed_columns). Each instantiation has its own on-chip memory.
+template <class Columns>
+void gradient_batch(const DeviceWord* robot_words, const DeviceWord* in, DeviceWord* out, int n_states,
+                    bool tau_input, Columns columns) {
   // on-chip for the whole batch (static: BRAM on hardware, and off the stack in C simulation)
   static RobotConstants<DeviceScalar, kDeviceMaxNv> robot;
   static KernelState<DeviceScalar, kDeviceMaxNv> state;
   read_robot(robot_words, robot);
   const int n = robot.nv;
-  const bool tau_input = (mode & kModeTauInput) != 0;
-  const unsigned columns = ((mode & kModeNoDq) ? 0u : kColumnsDq) | ((mode & kModeNoDqd) ? 0u : kColumnsDqd);
   for (int k = 0; k < n_states; ++k) {
     const DeviceWord* w = in + static_cast<long>(k) * AxiLayout::in_words(n);
     DeviceWord* o = out + static_cast<long>(k) * AxiLayout::out_words(n);
@@ -70,4 +62,30 @@ extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_wor
     }
     o[n + 2 * n * n] = scope.overflowed() ? kStatusOverflow : kStatusOk;
   }
+}
+
+}  // namespace
+
+template <unsigned kColumns>
+void gradient_fixed_columns(const DeviceWord* robot, const DeviceWord* in, DeviceWord* out, int n_states, int mode) {
+  gradient_batch(robot, in, out, n_states, (mode & kModeTauInput) != 0, FixedColumns<kColumns>{});
+}
+template void gradient_fixed_columns<kColumnsDq>(const DeviceWord*, const DeviceWord*, DeviceWord*, int, int);
+template void gradient_fixed_columns<kColumnsDqd>(const DeviceWord*, const DeviceWord*, DeviceWord*, int, int);
+template void gradient_fixed_columns<kColumnsDq | kColumnsDqd>(const DeviceWord*, const DeviceWord*, DeviceWord*, int,
+                                                               int);
+
+}  // namespace rbdgrad::fpga
+
+extern "C" void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot_words, const rbdgrad::fpga::DeviceWord* in,
+                                      rbdgrad::fpga::DeviceWord* out, int n_states, int mode) {
+  using namespace rbdgrad::fpga;
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = robot_words offset = slave bundle = gmem0)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = in offset = slave bundle = gmem0)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE m_axi port = out offset = slave bundle = gmem1)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = n_states)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = mode)
+  RBDGRAD_HLS_PRAGMA(HLS INTERFACE s_axilite port = return)
+  const unsigned columns = ((mode & kModeNoDq) ? 0u : kColumnsDq) | ((mode & kModeNoDqd) ? 0u : kColumnsDqd);
+  gradient_batch(robot_words, in, out, n_states, (mode & kModeTauInput) != 0, columns);
 }

@@ -15,3 +15,14 @@ extern "C" {
 void rbdgrad_fpga_gradient(const rbdgrad::fpga::DeviceWord* robot, const rbdgrad::fpga::DeviceWord* in,
                            rbdgrad::fpga::DeviceWord* out, int n_states, int mode);
 }
+
+namespace rbdgrad::fpga {
+/// The same top function with its columns fixed at compile time (kColumnsDq, kColumnsDqd or both;
+/// gradient_kernel.hpp's FixedColumns): the kernel built for one column set, which never had the
+/// other's datapaths. mode's kModeTauInput is read; its kModeNoDq and kModeNoDqd are ignored.
+/// The same words as rbdgrad_fpga_gradient with the matching mode (GradientTop tests). Issue 8's
+/// reference for what the run-time mode costs (bench/plugins/fpga_host_bench.cpp, SkipCost);
+/// the plugin does not use it. Not reentrant; its on-chip memory is its own.
+template <unsigned kColumns>
+void gradient_fixed_columns(const DeviceWord* robot, const DeviceWord* in, DeviceWord* out, int n_states, int mode);
+}  // namespace rbdgrad::fpga

@@ -144,6 +144,58 @@ TEST(GradientTop, BypassedColumnsLeaveTheOthersBitForBit) {
   }
 }
 
+// The top function built with its columns fixed at compile time (gradient_fixed_columns, the
+// kernel that never had the other datapaths: issue 8's reference in fpga_host_bench's SkipCost)
+// writes the same words as the top function with the same columns from the mode word, every word
+// of every state (qdd, both column blocks with the skipped one's zeros, the status), from tau and
+// from qdd.
+TEST(GradientTop, FixedColumnsGiveTheModesBits) {
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    const Model model = testing::load_embedded(robot);
+    const io::StateFile file = reference(robot);
+    const int n = model.nv;
+    std::vector<DeviceWord> robot_words;
+    std::string error;
+    ASSERT_TRUE(pack_robot(model, robot_words, error)) << error;
+    for (const bool tau_input : {true, false}) {
+      std::vector<DeviceWord> in;
+      int states = 0;
+      for (const io::StateRecord& r : file.states)
+        states += pack_state(n, r.at("q").data(), r.at("qd").data(), r.at(tau_input ? "tau" : "qdd").data(),
+                             r.at("Minv").data(), in, error);
+      ASSERT_GT(states, 0);
+      const int input = tau_input ? kModeTauInput : 0;
+      using Top = void (*)(const DeviceWord*, const DeviceWord*, DeviceWord*, int, int);
+      const auto run = [&](Top top, int mode) {
+        std::vector<DeviceWord> out(static_cast<std::size_t>(states * AxiLayout::out_words(n)), -1);
+        top(robot_words.data(), in.data(), out.data(), states, mode);
+        return out;
+      };
+      const struct {
+        const char* name;
+        int mode;
+        Top fixed;
+      } cases[] = {{"d qdd/d q only", input | kModeNoDqd, &gradient_fixed_columns<kColumnsDq>},
+                   {"d qdd/d qd only", input | kModeNoDq, &gradient_fixed_columns<kColumnsDqd>},
+                   {"both", input, &gradient_fixed_columns<kColumnsDq | kColumnsDqd>}};
+      for (const auto& c : cases) {
+        const std::vector<DeviceWord> by_mode = run(&rbdgrad_fpga_gradient, c.mode);
+        // the fixed kernel reads only the input kind from the mode word
+        const std::vector<DeviceWord> fixed = run(c.fixed, input);
+        ASSERT_EQ(fixed.size(), by_mode.size());
+        for (std::size_t w = 0; w < fixed.size(); ++w)
+          ASSERT_EQ(fixed[w], by_mode[w]) << robot << (tau_input ? " tau" : " qdd") << " input, " << c.name
+                                          << ": state " << w / static_cast<std::size_t>(AxiLayout::out_words(n))
+                                          << " word " << w % static_cast<std::size_t>(AxiLayout::out_words(n));
+        int ok = 0;
+        for (int k = 0; k < states; ++k)
+          ok += fixed[static_cast<std::size_t>((k + 1) * AxiLayout::out_words(n) - 1)] == kStatusOk;
+        EXPECT_GT(ok, 0) << robot << " " << c.name << ": no state in range, nothing compared";
+      }
+    }
+  }
+}
+
 TEST(GradientTop, PackingRefusesWhatDoesNotFit) {
   const Model model = testing::load_embedded("iiwa14");
   std::vector<DeviceWord> words;
