@@ -19,7 +19,7 @@
 // are fixed, so mode and fixed have the same figure).
 #include <benchmark/benchmark.h>
 
-#include <chrono>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "../support/rotating_ways.hpp"
 #include "host/axi_packing.hpp"
 #include "host/latency_model.hpp"
 #include "kernel/gradient_top.hpp"
@@ -216,18 +217,8 @@ void BM_SkipCost(benchmark::State& st, const char* robot, unsigned columns) {
     st.SkipWithError("the fixed-columns kernel's words differ from the mode's");
     return;
   }
-  using Clock = std::chrono::steady_clock;
-  double ns[3] = {0, 0, 0};
   long passes = 0;
-  for (auto _ : st) {
-    for (int j = 0; j < 3; ++j) {
-      const int which = static_cast<int>((passes + j) % 3);
-      const Clock::time_point start = Clock::now();
-      run(which);
-      ns[which] += std::chrono::duration<double, std::nano>(Clock::now() - start).count();
-    }
-    ++passes;
-  }
+  const std::array<double, 3> ns = bench::time_rotating_ways<3>(st, run, passes);
   const double states = static_cast<double>(passes) * kPoolSize;
   st.counters["full_ns"] = ns[0] / states;
   st.counters["mode_ns"] = ns[1] / states;

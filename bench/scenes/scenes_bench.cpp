@@ -21,7 +21,7 @@
 // N m per body); the benchmark's own Time column is per pass of the three (3 x 64 states).
 #include <benchmark/benchmark.h>
 
-#include <chrono>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -34,6 +34,7 @@
 #include "rbdgrad/algorithm/fd_derivatives.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "../../tests/support/test_models.hpp"
+#include "../support/rotating_ways.hpp"
 #include "rbdgrad/execution_plan.hpp"
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/scalar_types.hpp"
@@ -243,21 +244,17 @@ void bench(benchmark::State& state, const Robot* robot, const Robot* full_robot)
       return;
     }
   }
-  using Clock = std::chrono::steady_clock;
-  double ns[3] = {0, 0, 0};  // full, plan, direct
   long passes = 0;
-  for (auto _ : state) {
-    for (int j = 0; j < 3; ++j) {
-      const int which = static_cast<int>((passes + j) % 3);
-      const Clock::time_point start = Clock::now();
-      Status s = which == 0   ? full.template pass<Variant::kFull, false>()
-                 : which == 1 ? variant.template pass<kVariant, false>()
-                              : variant.template pass<kVariant, true>();
-      benchmark::DoNotOptimize(s);
-      ns[which] += std::chrono::duration<double, std::nano>(Clock::now() - start).count();
-    }
-    ++passes;
-  }
+  // full, plan, direct
+  const std::array<double, 3> ns = bench::time_rotating_ways<3>(
+      state,
+      [&](int which) {
+        Status s = which == 0   ? full.template pass<Variant::kFull, false>()
+                   : which == 1 ? variant.template pass<kVariant, false>()
+                                : variant.template pass<kVariant, true>();
+        benchmark::DoNotOptimize(s);
+      },
+      passes);
   const double states = static_cast<double>(passes) * kPoolSize;
   state.counters["full_ns"] = ns[0] / states;
   state.counters["plan_ns"] = ns[1] / states;
