@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cstring>
 #include <set>
-#include <sstream>
 
 #include "rbdgrad/locked_joints.hpp"
 #include "rbdgrad/plugin_api.h"
@@ -45,14 +45,15 @@ std::string in_brackets(const std::string& text) {
 // "[a, b]"
 std::string bracketed(const std::vector<std::string>& names) { return in_brackets(joined(names)); }
 
-// "[head_1_joint=0, head_2_joint=0.1]", sorted by joint
+// "[head_1_joint=0, head_2_joint=0.1]", sorted by joint; each value in the shortest text that
+// reads back as the same double, so that two definitions compare equal only when their values do
 std::string locks_text(std::vector<std::pair<std::string, double>> locks) {
   std::sort(locks.begin(), locks.end());
   std::vector<std::string> items;
   for (const auto& [joint, value] : locks) {
-    std::ostringstream v;
-    v << value;
-    items.push_back(joint + "=" + v.str());
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, value).ptr;
+    items.push_back(joint + "=" + std::string(text, end));
   }
   return bracketed(items);
 }

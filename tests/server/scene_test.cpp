@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-
+#include <cmath>
 #include <cstring>
 
 #include "model_registry.hpp"
@@ -223,6 +223,13 @@ TEST(Scene, DifferencesNameEachFieldThatDiffers) {
   other = humanoid_scene();
   other.model = "hyq";
   EXPECT_EQ(scene_differences(have, other), "model: registered 'talos', asked 'hyq'");
+  // a lock value that differs in its last bits is another definition, and says so in full
+  other = humanoid_scene();
+  other.locked_joints[1].second = std::nextafter(0.1, 1.0);
+  EXPECT_EQ(scene_differences(have, other),
+            "locked_joints: registered [gripper_left_joint=0, gripper_right_joint=0, head_1_joint=0, "
+            "head_2_joint=0.1], asked [gripper_left_joint=0, gripper_right_joint=0, head_1_joint=0, "
+            "head_2_joint=0.10000000000000002]");
 }
 
 TEST(ApplyScene, TheScenesOutputsWhenNoneAreListedElseASubset) {
