@@ -14,9 +14,8 @@
 // callback on a gRPC thread; no thread per call), ComputeSession (one long-lived stream for a
 // control loop: one request per step, responses in order, buffers reused), list_models,
 // get_model, list_scenes, get_scene, register_scene, server_info, check_health. Every call has a
-// deadline: its own
-// timeout, else the client's default. ClientOptions::tls and bearer_token reach a daemon with TLS
-// (or mutual TLS) and token authentication.
+// deadline: its own timeout, else the client's default. ClientOptions::tls and bearer_token reach
+// a daemon with TLS (or mutual TLS) and token authentication.
 //
 // Threads: a Client may be used from any number of threads at once (they share one channel: one
 // connection per server). A ComputeSession is used by one thread at a time.
