@@ -170,6 +170,12 @@ Kernel no_graphs() {
   k.options.graphs = false;
   return k;
 }
+// the defaults without the warp kernel: gradient batches on the block kernel, as before it
+Kernel no_warp() {
+  Kernel k{"nowarp", {}};
+  k.options.warp_kernel = false;
+  return k;
+}
 Kernel mapped_io() {
   Kernel k{"mapped", {}};
   k.options.mapped_io_max_kib = std::size_t{1} << 30;
@@ -237,6 +243,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   (void)instance->set_kernel_options(kernel.options);
   state.counters["kernel_us"] = 1e3 * kernel_ms / timed_calls;
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
+  state.counters["warp_kernel"] = instance->last_used_warp_kernel() ? 1 : 0;
   state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
   state.counters["f32_in_f64"] = instance->last_computed_f32_in_f64() ? 1 : 0;
   state.counters["chunks"] = static_cast<double>(instance->last_chunks());
@@ -277,6 +284,13 @@ const bool registered = [] {
           add<float>("cuda_e2e", robot, n, kernel, pinned_memory);
           if (kernel.name != "f32-arith") add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
         }
+      }
+  // cuda_warp: the warp kernel (the defaults) against the block kernel, side by side per size
+  for (const char* robot : {"iiwa14", "talos_reduced"})
+    for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
+      for (const Kernel& kernel : {default_kernel(), no_warp()}) {
+        add<float>("cuda_warp", robot, n, kernel);
+        add<double>("cuda_warp", robot, n, kernel);
       }
   // cuda_concurrent: 1, 2 and 4 instances computing at once (states_per_s is their sum)
   for (const char* robot : {"iiwa14", "talos_reduced"})

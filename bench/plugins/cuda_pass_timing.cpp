@@ -1,8 +1,9 @@
 // Where the block kernel's time goes for one state: the SM clock at the kernel's entry, after its
 // prologue (inputs and constants into shared memory) and after every pass (sync) of state 0's
 // thread group, in a build with RBDGRAD_CUDA_PASS_TIMING=ON (the passes are then timed, the
-// kernel is otherwise the same). Prints, per robot and precision, the cycles of each pass and
-// their sum, the median over repeated launches of a small batch. Needs a GPU.
+// kernel is otherwise the same). The warp kernel the same way, at the end of each of its stages
+// (WarpLanes::stamp). Prints, per kernel, robot and precision, the cycles of each pass and their
+// sum, the median over repeated launches of a small batch. Needs a GPU.
 #include <cuda_runtime_api.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 
 #include "block_launch.hpp"
 #include "cuda_instance.hpp"
+#include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
 
@@ -21,10 +23,12 @@ namespace {
 using rbdgrad::Model;
 
 constexpr int kClocks = rbdgrad::cuda::ThreadGroup::kMaxPassClocks;
+constexpr int kWarpClocks = rbdgrad::cuda::WarpLanes<8>::kMaxStageClocks + 1;
 constexpr int kRepeats = 51;
 
 template <class S>
-int run(const std::string& robot, std::uint32_t precision, std::size_t n, double clock_ghz, bool mapped_io) {
+int run(const std::string& robot, std::uint32_t precision, std::size_t n, double clock_ghz, bool mapped_io,
+        bool warp) {
   Model model;
   if (!rbdgrad::load_urdf_string(std::string(rbdgrad::embedded_robot_urdf(robot)), robot, model)) return 1;
   std::unique_ptr<rbdgrad::cuda::CudaInstance> instance;
@@ -35,6 +39,7 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
   // copies instead of host memory read and written by the kernel (mapped I/O, the default here)
   rbdgrad::cuda::KernelOptions options;
   options.time_kernel = true;
+  options.warp_kernel = warp;
   if (!mapped_io) options.mapped_io_max_kib = 0;
   if (!instance->set_kernel_options(options)) return 1;
   const std::size_t v = n * static_cast<std::size_t>(model.nv);
@@ -65,11 +70,13 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
       std::printf("%s\n", s.to_string().c_str());
       return 1;
     }
-    if (rbdgrad::cuda::read_block_pass_clocks(clocks.data(), kClocks) != cudaSuccess) return 1;
-    if (!instance->last_used_block_kernel()) {
-      std::printf("the block kernel did not run\n");
+    if (!instance->last_used_block_kernel() || instance->last_used_warp_kernel() != warp) {
+      std::printf("the %s kernel did not run\n", warp ? "warp" : "block");
       return 1;
     }
+    const cudaError_t read = warp ? rbdgrad::cuda::read_warp_stage_clocks(clocks.data(), kWarpClocks)
+                                  : rbdgrad::cuda::read_block_pass_clocks(clocks.data(), kClocks);
+    if (read != cudaSuccess) return 1;
     int count = 1;
     while (count < kClocks && clocks[count] > clocks[count - 1]) ++count;
     passes = count - 1;
@@ -77,8 +84,9 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
     for (int k = 1; k < count; ++k) d.push_back(clocks[k] - clocks[k - 1]);
     deltas.push_back(d);
   }
-  std::printf("%s %s N=%zu %s: %d passes, kernel %.1f us (event)\n", robot.c_str(), sizeof(S) == 8 ? "f64" : "f32", n,
-              mapped_io ? "mapped I/O" : "copies", passes - 1, instance->last_kernel_ms() * 1e3);
+  std::printf("%s kernel, %s %s N=%zu %s: %d passes, kernel %.1f us (event)\n", warp ? "warp" : "block",
+              robot.c_str(), sizeof(S) == 8 ? "f64" : "f32", n, mapped_io ? "mapped I/O" : "copies", passes - 1,
+              instance->last_kernel_ms() * 1e3);
   long long total = 0;
   for (int k = 0; k < passes; ++k) {
     std::vector<long long> at;
@@ -111,8 +119,10 @@ int main() {
   int rc = 0;
   for (const bool mapped_io : {true, false})
     for (const char* robot : {"iiwa14", "talos_reduced"}) {
-      rc |= run<double>(robot, RBDGRAD_PRECISION_F64, 16, ghz, mapped_io);
-      rc |= run<float>(robot, RBDGRAD_PRECISION_F32, 16, ghz, mapped_io);
+      for (const bool warp : {true, false}) {
+        rc |= run<double>(robot, RBDGRAD_PRECISION_F64, 16, ghz, mapped_io, warp);
+        rc |= run<float>(robot, RBDGRAD_PRECISION_F32, 16, ghz, mapped_io, warp);
+      }
     }
   return rc;
 }

@@ -181,7 +181,13 @@ Status check_kernel_options(const KernelOptions& options) {
 Status CudaInstance::set_kernel_options(const KernelOptions& options) {
   if (Status s = check_kernel_options(options); !s) return s;
   kernel_ = options;
+  describe();
   return Status::ok();
+}
+
+void CudaInstance::describe() {
+  const bool warp = kernel_.warp_kernel && model_.nv <= kMaxWarpNv;
+  kernel_description_ = block_description_ + (warp ? "; gradient batches computed in f64 on the warp kernel" : "");
 }
 
 bool CudaInstance::f32_in_f64() const {
@@ -210,8 +216,17 @@ const SpecializedBlockKernel* CudaInstance::specialized() const {
 }
 
 template <class C, class S>
-cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape,
+bool CudaInstance::use_warp_kernel(const BatchPointers<S>& batch) const {
+  if constexpr (std::is_same_v<C, double>) return kernel_.warp_kernel && warp_kernel_supports(batch, model_.nv);
+  else return false;
+}
+
+
+template <class C, class S>
+cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
                                        cudaStream_t stream) const {
+  if constexpr (std::is_same_v<C, double>)
+    if (warp) return launch_warp_fused<S>(view<double>(), batch, stream);
   const SpecializedBlockKernel* specific = specialized<C, S>();
   return specific ? specific->launch<C, S>(view<C>(), batch, shape, stream)
                   : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
@@ -225,11 +240,13 @@ int CudaInstance::block_stages() const {
 }
 
 template <class C, class S>
-cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape,
+cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
                                              cudaStream_t stream) {
   KernelLaunch launch;
   const SpecializedBlockKernel* specific = specialized<C, S>();
-  if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
+  if (std::is_same_v<C, double> && warp)
+    launch = warp_fused_launch<S>(view<double>(), batch);
+  else if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
     launch = block_fused_launch<C, S>(view<C>(), batch, shape);
   ModelView<C> model_arg = view<C>();
   BatchPointers<S> batch_arg = batch;
@@ -239,7 +256,7 @@ cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, cons
     return cudaSuccess;
   }
   cudaGetLastError();  // the graph failed: the usual launch
-  return launch_block<C, S>(batch, shape, stream);
+  return launch_block<C, S>(batch, shape, warp, stream);
 }
 
 Status CudaInstance::specialize(const std::string& cache_dir) {
@@ -268,9 +285,10 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     parts += std::string(kernel_origin_name(k->origin())) + ", " + seconds;
     if (!k->warning().empty()) parts += ", " + k->warning();
   }
-  kernel_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
-                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "") +
-                        (plan_ ? ", " + block_stages_text(block_stages()) : "");
+  block_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
+                       parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "") +
+                       (plan_ ? ", " + block_stages_text(block_stages()) : "");
+  describe();
   return first;
 }
 
@@ -358,6 +376,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   whole.minv = static_cast<const S*>(b.minv);
   const bool wide = std::is_same_v<S, float> && f32_in_f64() && use_block_kernel<double>(whole, n);
   const bool block = wide || use_block_kernel<S>(whole, n);
+  // the warp kernel instead, where it is faster
+  const bool warp = block && (wide ? use_warp_kernel<double>(whole) : use_warp_kernel<S>(whole));
   last_graph_ = false;
   // the one-thread kernels of a batch share the workspace's slots: whole passes over them per chunk
   const std::size_t chunk = mapped ? n : chunk_states(n, block ? n : slots_, kernel_.chunks, model_.nv);
@@ -434,10 +454,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // one launch and no copies: as a CUDA Graph, which costs the host less (kernel_graphs.hpp)
     const bool graph = block && kernel_.graphs && mapped && !pipelined && !kernel_.time_kernel;
     const cudaError_t launched = !block  ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
-                                 : graph ? (wide ? launch_block_graph<double>(p, shape, stream)
-                                                 : launch_block_graph<S>(p, shape, stream))
-                                 : wide  ? launch_block<double>(p, shape, stream)
-                                         : launch_block<S>(p, shape, stream);
+                                 : graph ? (wide ? launch_block_graph<double>(p, shape, warp, stream)
+                                                 : launch_block_graph<S>(p, shape, warp, stream))
+                                 : wide  ? launch_block<double>(p, shape, warp, stream)
+                                         : launch_block<S>(p, shape, warp, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     // each runtime call costs about a microsecond of a small batch's time: only the events used
     if (pipelined || kernel_.time_kernel)
@@ -495,7 +515,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     last_kernel_ms_ = std::max(last_kernel_ms_, ms);
   }
   last_block_ = block;
-  last_specific_ = block && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
+  last_warp_ = warp;
+  last_specific_ = block && !warp && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
   last_f32_in_f64_ = wide;
   last_chunks_ = chunks;
   last_mapped_ = mapped;

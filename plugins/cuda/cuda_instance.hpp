@@ -18,6 +18,7 @@
 #include <string>
 
 #include "block_launch.hpp"
+#include "warp_launch.hpp"
 #include "common/batch_plan.hpp"
 #include "device/fused_state.hpp"
 #include "device_memory.hpp"
@@ -106,6 +107,9 @@ struct KernelOptions {
   bool time_kernel = false;
   // a batch of one block-kernel launch without copies goes as a CUDA Graph (kernel_graphs.hpp)
   bool graphs = true;
+  // gradient batches computed in f64 on models of up to kMaxWarpNv joints run the warp kernel
+  // (warp_launch.hpp) instead of the block kernel
+  bool warp_kernel = true;
   ChunkRule chunks;
   F32Compute f32_compute = F32Compute::kAuto;
 };
@@ -152,7 +156,8 @@ class CudaInstance {
   /// \return the first failure (the instance stays usable).
   Status specialize(const std::string& cache_dir);
   /// "kernel compiled for this robot (f64: compiled in 2.1 s; f32: disk cache)", or "generic
-  /// kernel" and why: for logs (describe_instance).
+  /// kernel" and why, then "; gradient batches computed in f64 on the warp kernel" where they
+  /// are: for logs (describe_instance).
   const std::string& kernel_description() const { return kernel_description_; }
 
   /// Kernel choice and shape for the next compute() calls. Errors: check_kernel_options.
@@ -161,6 +166,8 @@ class CudaInstance {
   /// Whether the last successful compute() ran the block kernel, and whether it skipped the copies.
   bool last_used_block_kernel() const { return last_block_; }
   bool last_used_mapped_io() const { return last_mapped_; }
+  /// Whether the last successful compute() ran the warp kernel (one of the block kernel's requests).
+  bool last_used_warp_kernel() const { return last_warp_; }
   /// Whether the last successful compute() ran the block kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many chunks the last successful compute() went in (chunk_states).
@@ -188,14 +195,21 @@ class CudaInstance {
   CudaInstance(const Model& model, int device, std::size_t workspace_bytes);
   Status init();
   template <class S> Status upload_model(Allocation& block, ModelView<S>& view);
+  // sets kernel_description_ from block_description_ and the options
+  void describe();
   template <class S> Status compute_typed(const rbdgrad_batch& batch);
   // C: what the block kernel would compute in, S: the batch's scalars
   template <class C, class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
+  // whether a block-kernel batch computed in C runs the warp kernel instead
+  template <class C, class S> bool use_warp_kernel(const BatchPointers<S>& batch) const;
+  // the block kernel, or with `warp` (computing in f64) the warp kernel
   template <class C, class S>
-  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, cudaStream_t stream) const;
+  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
+                           cudaStream_t stream) const;
   // the same as a CUDA Graph (graphs_), else as launch_block
   template <class C, class S>
-  cudaError_t launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, cudaStream_t stream);
+  cudaError_t launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
+                                 cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
@@ -223,12 +237,15 @@ class CudaInstance {
   bool last_block_ = false;
   bool last_mapped_ = false;
   bool last_specific_ = false;
+  bool last_warp_ = false;
   bool last_f32_in_f64_ = false;
   bool last_graph_ = false;
   KernelGraphs graphs_;
   std::size_t last_chunks_ = 0;
   bool fast_f64_ = false;  // the GPU's f64 rate is at least half its f32 rate (F32Compute)
   std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_, specialized_f64_for_f32_;
+  // the block kernel's build (specialize()), then the whole description with the warp kernel
+  std::string block_description_ = "generic kernel";
   std::string kernel_description_ = "generic kernel";
   int last_pinned_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions

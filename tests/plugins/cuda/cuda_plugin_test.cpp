@@ -110,7 +110,8 @@ TEST(CudaPlugin, OptionsAreChecked) {
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   EXPECT_NE(e->message.find("option 'specialize' is 'yes'"), std::string::npos) << e->message;
-  for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"}}) {
+  for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
+                                     {"warp_kernel", "maybe"}}) {
     create(api(), iiwa().desc(), {{name, value}}, &e);
     ASSERT_TRUE(e) << name << "=" << value;
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
@@ -165,8 +166,11 @@ void check_robot(const std::string& robot) {
   const plugin::ModelDesc desc(model);
   std::optional<PluginError> error;
   // one instance for every size and precision (its buffers grow and are reused), with the default
-  // kernel choice (the block kernel for gradient requests), and one with the one-thread kernel only
+  // kernel choice (the warp kernel for gradient requests computed in f64), one with the block
+  // kernel instead, and one with the one-thread kernel only
   InstancePtr instance = create(api(), desc.desc(), {{"device", "0"}}, &error);
+  ASSERT_FALSE(error) << error->message;
+  InstancePtr block_only = create(api(), desc.desc(), {{"warp_kernel", "false"}}, &error);
   ASSERT_FALSE(error) << error->message;
   InstancePtr thread_only = create(api(), desc.desc(), {{"block_max_states", "0"}}, &error);
   ASSERT_FALSE(error) << error->message;
@@ -181,7 +185,8 @@ void check_robot(const std::string& robot) {
       };
       for (const OutputCase& c : kOutputCases) run(instance.get(), c, "");
       for (const OutputCase& c : kBlockCases) {
-        run(instance.get(), c, " (block kernel)");
+        run(instance.get(), c, " (default kernel)");
+        run(block_only.get(), c, " (block kernel)");
         run(thread_only.get(), c, " (one-thread kernel)");
       }
       if (::testing::Test::HasFatalFailure()) return;
@@ -228,6 +233,10 @@ TEST(CudaPlugin, InstanceNamesItsGpu) {
   InstancePtr plain = create(api(), iiwa().desc(), {{"device", "0"}, {"specialize", "false"}});
   ASSERT_TRUE(plain);
   ASSERT_FALSE(take(api(), api()->describe_instance(plain.get(), &info)));
+  EXPECT_STREQ(info.detail, "generic kernel; gradient batches computed in f64 on the warp kernel");
+  InstancePtr block_only = create(api(), iiwa().desc(), {{"specialize", "false"}, {"warp_kernel", "false"}});
+  ASSERT_TRUE(block_only);
+  ASSERT_FALSE(take(api(), api()->describe_instance(block_only.get(), &info)));
   EXPECT_STREQ(info.detail, "generic kernel");
   // a 1.1 host's shorter struct: accepted, detail left alone
   rbdgrad_instance_info old{};
@@ -265,7 +274,8 @@ TEST(CudaBlockShapes, EveryShapeMatchesTheCore) {
     const std::vector<StateInputs> states = random_inputs(model, 33, 19);
     for (const auto& [tps, spb] : shapes) {
       std::optional<PluginError> error;
-      InstancePtr instance = create(api(), desc.desc(), {{"threads_per_state", tps}, {"states_per_block", spb}}, &error);
+      InstancePtr instance = create(
+          api(), desc.desc(), {{"threads_per_state", tps}, {"states_per_block", spb}, {"warp_kernel", "false"}}, &error);
       ASSERT_FALSE(error) << error->message;
       for (const bool tau_input : {true, false}) {
         const std::string where = std::string(robot) + " " + tps + " threads x " + spb + " states" +

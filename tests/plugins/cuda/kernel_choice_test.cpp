@@ -88,6 +88,7 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   rbdgrad_batch b = batch_of(run, gradient);
   ASSERT_TRUE(instance->compute(&b));
   EXPECT_TRUE(instance->last_used_block_kernel());
+  EXPECT_TRUE(instance->last_used_warp_kernel()) << "an f64 gradient request of 7 joints";
   EXPECT_TRUE(instance->last_used_mapped_io()) << "100 states: no copies by default";
   EXPECT_EQ(instance->last_kernel_ms(), 0.0f) << "the kernel is timed only when asked";
   auto with_m = equal_states(model.nv, 100);
@@ -99,7 +100,19 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   for (std::size_t e = 0; e < dq.size(); ++e)
     EXPECT_NEAR(dq[e], with_m.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e])));
 
+  // the block kernel instead of the warp kernel: the same numbers
   KernelOptions options;
+  options.warp_kernel = false;
+  ASSERT_TRUE(instance->set_kernel_options(options));
+  auto block = equal_states(model.nv, 100);
+  b = batch_of(block, gradient);
+  ASSERT_TRUE(instance->compute(&b));
+  EXPECT_TRUE(instance->last_used_block_kernel());
+  EXPECT_FALSE(instance->last_used_warp_kernel());
+  for (std::size_t e = 0; e < dq.size(); ++e)
+    EXPECT_NEAR(dq[e], block.out(RBDGRAD_OUTPUT_DQDD_DQ)[e], 1e-9 * (1 + std::abs(dq[e])));
+
+  options = KernelOptions{};
   options.block_max_states = 99;
   options.mapped_io_max_kib = 0;
   ASSERT_TRUE(instance->set_kernel_options(options));

@@ -56,6 +56,7 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
       auto specific = generic;
       KernelOptions options;
       options.f32_compute = f32_compute;
+      options.warp_kernel = false;  // the block kernel's two builds
       options.robot_specific = false;
       ASSERT_TRUE(instance.set_kernel_options(options));
       rbdgrad_batch b = generic.batch(precision, input, kGradient, false, false);

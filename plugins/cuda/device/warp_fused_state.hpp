@@ -1,0 +1,541 @@
+// One state of a batch on a segment of W lanes of a warp, lane i holding joint i: the
+// forward-dynamics gradient of block_fused_state.hpp (the same requests, algorithms, checks and
+// outputs) with each joint's values in registers instead of shared memory, and no barrier wider
+// than a warp. Paper 000's Algorithm 4 with paper 002's parallel prefix operations on the tree:
+// - the placements and the sums over a joint's ancestors (world-frame velocities and
+//   accelerations) by pointer jumping: ceil(log2(depth)) rounds of shuffles from the 2^r-th
+//   ancestor, for any tree;
+// - the sums over a subtree (composite inertias, forces) over the contiguous index range of the
+//   subtree in depth-first order, through the state's rows of shared memory;
+// - the body terms of the derivatives in compact form: a spatial inertia as mass, first moment and
+//   a symmetric 3x3 (10 values, not 36), and the B operator of the core's derivatives as
+//   B x = dI x + x x* h, where dI = v x* I - I v x is the inertia's rate (again a spatial inertia,
+//   of zero mass) and h = I v the momentum: sums over a subtree stay in that form (26 values);
+// - the columns of M, d tau/d qd, d tau/d q and of the final -M^-1 dc'/du one per lane;
+// - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
+//   a state fails at the same joint for the same reason.
+// It computes in f64 (S = double: the GPUs whose f64 is fast, where f32 batches run in f64 as
+// well); f32 batches elsewhere take the block kernel.
+#pragma once
+
+#include "block_fused_state.hpp"
+#include "warp_lanes.hpp"
+
+namespace rbdgrad::cuda {
+
+// The largest model the warp kernel takes: half a warp per state. A whole warp per state (32
+// joints) made talos_reduced's columns long serial loops, about twice as slow as the block kernel
+// up to 4096 states and no faster above (docs/benchmarks/cuda.md, runs 40 and 41).
+inline constexpr int kMaxWarpNv = 16;
+
+// The segment width for nv joints: 8 or 16 lanes (0: too large for the warp kernel).
+RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <= 16 ? 16 : 0; }
+
+// Scalars of shared memory per state: W rows of kRowStride (the subtree sums' terms, then the
+// joint vectors the column passes read, then the outputs on their way out), M^-1 (W x W,
+// row-major) and tau - c. Odd strides keep a segment's lanes, and the segments of a warp, on
+// different banks.
+template <int W>
+struct WarpShared {
+  static constexpr int kRowStride = 33;
+  static constexpr int kMinv = W * kRowStride;
+  static constexpr int kDiff = kMinv + W * W;
+  static constexpr int kScalars = kDiff + W + 1;
+  static_assert(kScalars % 2 == 1, "an odd number of scalars per state");
+  static_assert(W * kRowStride >= W * W, "the rows hold one output matrix");
+};
+
+// The warp kernel takes what the block kernel takes, in f64, up to kMaxWarpNv joints.
+template <class IO>
+RBDGRAD_HD bool warp_kernel_supports(const BatchPointers<IO>& b, int nv) {
+  return nv <= kMaxWarpNv && block_kernel_supports(b);
+}
+
+namespace warp {
+
+// A spatial inertia [A, h x; -h x, m 1] about the world origin: mass, first moment, and A
+// symmetric (xx xy xz yy yz zz). With m = 0 it also holds an inertia's rate.
+template <class S>
+struct Inertia {
+  S m;
+  S h[3];
+  S A[6];
+};
+constexpr int kInertiaTerms = 10;
+
+RBDGRAD_HD constexpr int sym(int r, int c) {
+  return r == c ? (r == 0 ? 0 : r == 1 ? 3 : 5) : (r + c == 1 ? 1 : r + c == 2 ? 2 : 4);
+}
+
+// I x = [A w + h x v; m v - h x w] for x = [w; v]
+template <class S>
+RBDGRAD_HD Vec6<S> mul(const Inertia<S>& I, const Vec6<S>& x) {
+  Vec6<S> out;
+  for (int r = 0; r < 3; ++r) out.v[r] = I.A[sym(r, 0)] * x.v[0] + I.A[sym(r, 1)] * x.v[1] + I.A[sym(r, 2)] * x.v[2];
+  cross3(I.h, x.v + 3, out.v, true);
+  S hw[3];
+  cross3(I.h, x.v, hw);
+  for (int r = 0; r < 3; ++r) out.v[3 + r] = I.m * x.v[3 + r] - hw[r];
+  return out;
+}
+
+// The rate of I moving with velocity v = [w; u]: v x* I - I v x = [w x A - A w x - (h u^T + u h^T)
+// + 2 (u . h) 1, (w x h + m u) x; ..., 0]
+template <class S>
+RBDGRAD_HD Inertia<S> rate(const Inertia<S>& I, const Vec6<S>& v) {
+  const S* w = v.v;
+  const S* u = v.v + 3;
+  Inertia<S> out;
+  out.m = S(0);
+  cross3(w, I.h, out.h);
+  for (int r = 0; r < 3; ++r) out.h[r] += I.m * u[r];
+  // P = w x A, column by column; the rate's A is P + P^T - ...
+  S P[9];
+  for (int c = 0; c < 3; ++c) {
+    const S col[3] = {I.A[sym(0, c)], I.A[sym(1, c)], I.A[sym(2, c)]};
+    S wc[3];
+    cross3(w, col, wc);
+    for (int r = 0; r < 3; ++r) P[3 * r + c] = wc[r];
+  }
+  const S uh = u[0] * I.h[0] + u[1] * I.h[1] + u[2] * I.h[2];
+  for (int r = 0; r < 3; ++r)
+    for (int c = r; c < 3; ++c) {
+      S x = P[3 * r + c] + P[3 * c + r] - (I.h[r] * u[c] + u[r] * I.h[c]);
+      if (r == c) x += S(2) * uh;
+      out.A[sym(r, c)] = x;
+    }
+  return out;
+}
+
+template <class S>
+RBDGRAD_HD void pack(const Inertia<S>& I, S* to) {
+  to[0] = I.m;
+  for (int k = 0; k < 3; ++k) to[1 + k] = I.h[k];
+  for (int k = 0; k < 6; ++k) to[4 + k] = I.A[k];
+}
+template <class S>
+RBDGRAD_HD Inertia<S> unpack(const S* from) {
+  Inertia<S> I;
+  I.m = from[0];
+  for (int k = 0; k < 3; ++k) I.h[k] = from[1 + k];
+  for (int k = 0; k < 6; ++k) I.A[k] = from[4 + k];
+  return I;
+}
+
+template <class S>
+RBDGRAD_HD Vec6<S> sub(const Vec6<S>& a, const Vec6<S>& b) {
+  Vec6<S> out;
+  for (int k = 0; k < 6; ++k) out.v[k] = a.v[k] - b.v[k];
+  return out;
+}
+
+// The 2^r-th ancestor of each lane's joint (-1 past the root), r < kMaxRounds.
+constexpr int kMaxRounds = 5;
+struct Jumps {
+  int to[kMaxRounds];
+  int rounds;  // 2^rounds >= the tree's depth
+};
+template <class Lanes>
+RBDGRAD_HD Jumps jumps(int parent, int levels, const Lanes& g) {
+  Jumps j;
+  j.rounds = 0;
+  while ((1 << j.rounds) < levels) ++j.rounds;
+  j.to[0] = parent;
+  for (int r = 0; r + 1 < kMaxRounds; ++r) {
+    const int at = j.to[r];
+    const int further = g.shfl(at, at < 0 ? g.lane : at);
+    j.to[r + 1] = at < 0 ? -1 : further;
+  }
+  return j;
+}
+
+// x over the joint and its ancestors, by pointer jumping: after round r a lane holds the sum over
+// its joint and the 2^(r+1) - 1 joints above it
+template <class S, int K, class Lanes>
+RBDGRAD_HD void ancestor_sum(S (&x)[K], const Jumps& j, const Lanes& g) {
+  for (int r = 0; r < kMaxRounds; ++r) {
+    if (r >= j.rounds) break;
+    const int at = j.to[r];
+    S far[K];
+    for (int k = 0; k < K; ++k) far[k] = g.shfl(x[k], at < 0 ? g.lane : at);
+    if (at >= 0)
+      for (int k = 0; k < K; ++k) x[k] += far[k];
+  }
+}
+template <class S, class Lanes>
+RBDGRAD_HD void ancestor_sum(Vec6<S>& x, const Jumps& j, const Lanes& g) {
+  ancestor_sum(x.v, j, g);
+}
+
+// x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`):
+// each lane writes its own terms, then adds those of its descendants in index order
+template <class S, int K, class Lanes>
+RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Lanes& g) {
+  for (int k = 0; k < K; ++k) rows[i * stride + k] = x[k];
+  g.sync();
+  for (int j = i + 1; j < end; ++j)
+    for (int k = 0; k < K; ++k) x[k] += rows[j * stride + k];
+  g.sync();
+}
+
+template <class S>
+RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
+  for (int k = 0; k < 6; ++k) to[k] = x.v[k];
+}
+template <class S>
+RBDGRAD_HD S dot_row(const S* row, const Vec6<S>& x) {
+  S s = row[0] * x.v[0];
+  for (int k = 1; k < 6; ++k) s += row[k] * x.v[k];
+  return s;
+}
+template <class S>
+RBDGRAD_HD S dot_rows(const S* a, const S* b) {
+  S s = a[0] * b[0];
+  for (int k = 1; k < 6; ++k) s += a[k] * b[k];
+  return s;
+}
+
+// where each joint vector sits in a row of the column passes: what a lane reads of the others
+enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18 };
+
+template <class S>
+RBDGRAD_HD Vec6<S> load(const S* from) {
+  Vec6<S> x;
+  for (int k = 0; k < 6; ++k) x.v[k] = from[k];
+  return x;
+}
+
+}  // namespace warp
+
+// Computes `state` of b (warp_kernel_supports(b, m.nv)) on the segment g (W lanes, m.nv <= W) and
+// writes its outputs and status; an inactive segment (past the end of the batch) computes `state`
+// and writes nothing. sh: the state's WarpShared<W>::kScalars of shared memory. kStages as in
+// block_evaluate_state.
+template <int W, class S, class IO, int kStages, class Lanes>
+RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPointers<IO>& b, std::uint64_t state,
+                                    bool active, const Lanes& g) {
+  using warp::Column;
+  using warp::Inertia;
+  const int n = m.nv, i = g.lane;
+  const bool joint = i < n;
+  const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
+  constexpr bool kFixed = kStages != block_stages::kPerBatch;
+  const bool want_dq = kFixed ? (kStages & block_stages::kDq) != 0 : (b.outputs & kOutputDqddDq) != 0;
+  const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
+  const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
+  constexpr int kStride = WarpShared<W>::kRowStride;
+  S* const rows = sh;
+  S* const minv_rows = sh + WarpShared<W>::kMinv;
+  S* const diff = sh + WarpShared<W>::kDiff;
+
+  // the inputs, then the robot's constants (their loads overlap)
+  S q = S(0), qd = S(0), u = S(0);
+  if (joint) {
+    q = static_cast<S>(b.q[state * vec + i]);
+    qd = static_cast<S>(b.qd[state * vec + i]);
+    u = static_cast<S>(b.u[state * vec + i]);
+  }
+  const int parent = joint ? m.parent[i] : -1;
+  const int end = joint ? m.subtree_end[i] : i + 1;
+  const warp::Jumps jumps = warp::jumps(parent, m.levels, g);
+  // ancestors-or-self of this joint (bit r: joint r), for the column passes
+  unsigned ancestors = 0;
+  for (int r = 0; r < W; ++r) {
+    const int end_r = g.shfl(end, r);
+    if (r <= i && i < end_r) ancestors |= 1u << r;
+  }
+
+  g.stamp();  // inputs and constants
+  // the joint transform in the parent frame, then in the world by pointer jumping
+  S R[9], p[3];
+  for (int e = 0; e < 9; ++e) R[e] = joint ? m.joint_rotation[9 * i + e] : S(e % 4 == 0 ? 1 : 0);
+  for (int r = 0; r < 3; ++r) p[r] = joint ? m.joint_translation[3 * i + r] : S(0);
+  const bool prismatic = joint && m.prismatic[i];
+  if (!prismatic) {
+    S s, c;
+#if defined(__CUDA_ARCH__)
+    sincos(q, &s, &c);  // one argument reduction for both
+#else
+    s = std::sin(q);
+    c = std::cos(q);
+#endif
+    // R0 * Rz(q): only the first two columns mix
+    for (int r = 0; r < 3; ++r) {
+      const S x = R[3 * r], y = R[3 * r + 1];
+      R[3 * r] = c * x + s * y;
+      R[3 * r + 1] = c * y - s * x;
+    }
+  } else {
+    for (int r = 0; r < 3; ++r) p[r] += q * R[3 * r + 2];
+  }
+  for (int round = 0; round < warp::kMaxRounds; ++round) {
+    if (round >= jumps.rounds) break;
+    const int at = jumps.to[round];
+    const int from = at < 0 ? i : at;
+    S Ra[9], pa[3];
+    for (int e = 0; e < 9; ++e) Ra[e] = g.shfl(R[e], from);
+    for (int r = 0; r < 3; ++r) pa[r] = g.shfl(p[r], from);
+    if (at >= 0) {
+      S Rn[9], pn[3];
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) Rn[3 * r + c] = Ra[3 * r] * R[c] + Ra[3 * r + 1] * R[3 + c] + Ra[3 * r + 2] * R[6 + c];
+        pn[r] = Ra[3 * r] * p[0] + Ra[3 * r + 1] * p[1] + Ra[3 * r + 2] * p[2] + pa[r];
+      }
+      for (int e = 0; e < 9; ++e) R[e] = Rn[e];
+      for (int r = 0; r < 3; ++r) p[r] = pn[r];
+    }
+  }
+
+  g.stamp();  // placements
+  // the axis, the body's inertia about the world origin, the external force in the world
+  Vec6<S> axis;
+  {
+    const S z[3] = {R[2], R[5], R[8]};
+    if (!prismatic) {
+      for (int r = 0; r < 3; ++r) axis.v[r] = z[r];
+      cross3(p, z, axis.v + 3);
+    } else {
+      for (int r = 0; r < 3; ++r) {
+        axis.v[r] = S(0);
+        axis.v[3 + r] = z[r];
+      }
+    }
+  }
+  Inertia<S> I;
+  {
+    const S mass = joint ? m.mass[i] : S(0);
+    S com[3], Ic[9];
+    for (int r = 0; r < 3; ++r) com[r] = joint ? m.com[3 * i + r] : S(0);
+    for (int e = 0; e < 9; ++e) Ic[e] = joint ? m.inertia_com[9 * i + e] : S(0);
+    S co[3];
+    for (int r = 0; r < 3; ++r) co[r] = R[3 * r] * com[0] + R[3 * r + 1] * com[1] + R[3 * r + 2] * com[2] + p[r];
+    S RIc[9];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) RIc[3 * r + c] = R[3 * r] * Ic[c] + R[3 * r + 1] * Ic[3 + c] + R[3 * r + 2] * Ic[6 + c];
+    const S co2 = co[0] * co[0] + co[1] * co[1] + co[2] * co[2];
+    I.m = mass;
+    for (int r = 0; r < 3; ++r) I.h[r] = mass * co[r];
+    for (int r = 0; r < 3; ++r)
+      for (int c = r; c < 3; ++c) {
+        const S Icw = RIc[3 * r] * R[3 * c] + RIc[3 * r + 1] * R[3 * c + 1] + RIc[3 * r + 2] * R[3 * c + 2];
+        I.A[warp::sym(r, c)] = Icw + mass * ((r == c ? co2 : S(0)) - co[r] * co[c]);
+      }
+  }
+  Vec6<S> f_ext{};
+  const IO* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
+  if (fext && joint) {
+    // [moment about the link origin; force] in the URDF link frame -> world axes, world origin
+    const S* lr = m.link_rotation + 9 * i;
+    S Rl[9];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) Rl[3 * r + c] = R[3 * r] * lr[c] + R[3 * r + 1] * lr[3 + c] + R[3 * r + 2] * lr[6 + c];
+    S fl[6];
+    for (int k = 0; k < 6; ++k) fl[k] = static_cast<S>(fext[6 * i + k]);
+    for (int r = 0; r < 3; ++r) {
+      f_ext.v[r] = Rl[3 * r] * fl[0] + Rl[3 * r + 1] * fl[1] + Rl[3 * r + 2] * fl[2];
+      f_ext.v[3 + r] = Rl[3 * r] * fl[3] + Rl[3 * r + 1] * fl[4] + Rl[3 * r + 2] * fl[5];
+    }
+    cross3(p, f_ext.v + 3, f_ext.v, true);
+  }
+
+  g.stamp();  // axes, inertias, external forces
+  // velocities, alpha = v_parent x S, momenta; accelerations with qdd = 0; body forces
+  const Vec6<S> gravity{{S(0), S(0), S(0), -m.gravity[0], -m.gravity[1], -m.gravity[2]}};
+  Vec6<S> v = scaled(axis, qd);
+  warp::ancestor_sum(v, jumps, g);
+  Vec6<S> v_parent;
+  for (int k = 0; k < 6; ++k) v_parent.v[k] = g.shfl(v.v[k], parent < 0 ? i : parent);
+  if (parent < 0) v_parent = Vec6<S>{};
+  const Vec6<S> alpha = cross_motion(v_parent, axis);
+  const Vec6<S> mom = warp::mul(I, v);
+  Vec6<S> a = scaled(alpha, qd);
+  warp::ancestor_sum(a, jumps, g);
+  a = add(a, gravity);
+  const Vec6<S> f = warp::sub(add(warp::mul(I, a), cross_force(v, mom)), f_ext);
+
+  g.stamp();  // velocities, accelerations, forces
+  // subtree sums: composite inertia, its rate, momentum and force
+  Inertia<S> Ic, dIc;
+  Vec6<S> momc, F;
+  {
+    constexpr int kTerms = 2 * warp::kInertiaTerms + 12;
+    S terms[kTerms];
+    warp::pack(I, terms);
+    warp::pack(warp::rate(I, v), terms + warp::kInertiaTerms);
+    for (int k = 0; k < 6; ++k) {
+      terms[2 * warp::kInertiaTerms + k] = mom.v[k];
+      terms[2 * warp::kInertiaTerms + 6 + k] = f.v[k];
+    }
+    warp::subtree_sum(terms, rows, kStride, i, end, g);
+    Ic = warp::unpack(terms);
+    dIc = warp::unpack(terms + warp::kInertiaTerms);
+    for (int k = 0; k < 6; ++k) {
+      momc.v[k] = terms[2 * warp::kInertiaTerms + k];
+      F.v[k] = terms[2 * warp::kInertiaTerms + 6 + k];
+    }
+  }
+  g.stamp();  // subtree sums
+  // c = tau(qdd = 0) = S . F; Ic S; Bc^T S = dIc S - S x* hc; E = 2 Ic alpha + Bc S
+  const S c_joint = dot(axis, F);
+  const Vec6<S> Ic_S = warp::mul(Ic, axis);
+  const Vec6<S> dIc_S = warp::mul(dIc, axis);
+  const Vec6<S> S_x_momc = cross_force(axis, momc);
+  const Vec6<S> Bc_t_S = warp::sub(dIc_S, S_x_momc);
+  S* const row = rows + i * kStride;
+  warp::store(row + Column::kAxis, axis);
+  warp::store(row + Column::kIcS, Ic_S);
+  warp::store(row + Column::kBcTS, Bc_t_S);
+  g.sync();
+
+  g.stamp();  // joint vectors
+  // this lane's columns of M and d tau/d qd, row r from the pair (r, i) of the block kernel: r an
+  // ancestor-or-self ("up") or a strict descendant ("down") of joint i, else zero. Both values
+  // are computed and one kept: no branch, so that every row's loads can go first
+  Vec6<S> E{};
+  if (want_dqd) E = add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc));
+  S col[W], dqd_col[W];
+  for (int r = 0; r < W; ++r) {
+    const S* other = rows + r * kStride;
+    const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS);
+    const bool up = joint && (ancestors >> r & 1u), down = joint && r > i && r < end;
+    const S m_up = dot(S_r, Ic_S), m_down = dot(axis, Ic_S_r);
+    col[r] = up ? m_up : down ? m_down : S(0);
+    dqd_col[r] = S(0);
+    if (want_dqd) {
+      const Vec6<S> Bc_t_S_r = warp::load(other + Column::kBcTS);
+      const S d_up = dot(S_r, E), d_down = S(2) * dot(Ic_S_r, alpha) + dot(Bc_t_S_r, axis);
+      dqd_col[r] = up ? d_up : down ? d_down : S(0);
+    }
+  }
+
+  g.stamp();  // columns of M and d tau/d qd
+  // M^-1: the caller's, or by exchange steps on the columns (leaves first, as the block kernel);
+  // the pivots are checked after the steps, in pivot order
+  std::uint32_t status = 0;
+  if (minv_supplied) {
+    for (int r = 0; r < W; ++r) col[r] = joint && r < n ? static_cast<S>(b.minv[state * mat + r * vec + i]) : S(0);
+  } else {
+    S pivots[W];
+    for (int pv = W - 1; pv >= 0; --pv) {
+      pivots[pv] = S(1);
+      if (pv >= n) continue;
+      S pivot_col[W];
+      for (int r = 0; r < W; ++r) pivot_col[r] = g.shfl(col[r], pv);
+      pivots[pv] = pivot_col[pv];
+      const S rp = S(1) / pivot_col[pv];
+      const S a_pj = col[pv];
+      for (int r = 0; r < W; ++r) {
+        S x;
+        if (r == pv && i == pv) x = rp;
+        else if (r == pv) x = -a_pj * rp;
+        else if (i == pv) x = pivot_col[r] * rp;
+        else x = col[r] - pivot_col[r] * rp * a_pj;
+        col[r] = x;
+      }
+    }
+    for (int pv = W - 1; pv >= 0; --pv) {
+      if (pv >= n || status != 0) continue;
+      const S d = pivots[pv];
+      if (!is_finite(d)) status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
+      else if (!(d > S(0))) status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
+    }
+  }
+  for (int r = 0; r < W; ++r) minv_rows[r * W + i] = col[r];
+  diff[i] = u - c_joint;
+  g.sync();
+  g.stamp();  // M^-1
+  // qdd = M^-1 (tau - c), row i
+  S qdd = u;
+  if (b.tau_input) {
+    qdd = S(0);
+    for (int j = 0; j < n; ++j) qdd += minv_rows[i * W + j] * diff[j];
+  }
+
+  g.stamp();  // qdd
+  // d tau/d q: the motion due to qdd, beta, the subtree force with it, then this lane's column
+  S dq_col[W];
+  for (int r = 0; r < W; ++r) dq_col[r] = S(0);
+  if (want_dq) {
+    Vec6<S> a_qdd = scaled(axis, qdd);
+    warp::ancestor_sum(a_qdd, jumps, g);
+    const int from = parent < 0 ? i : parent;
+    Vec6<S> a_parent;
+    for (int k = 0; k < 6; ++k) a_parent.v[k] = g.shfl(a.v[k] + a_qdd.v[k], from);
+    if (parent < 0) a_parent = gravity;
+    Vec6<S> beta = cross_motion(a_parent, axis);
+    if (parent >= 0) beta = add(beta, cross_motion(v_parent, alpha));
+    S f_qdd[6];
+    const Vec6<S> Ia = warp::mul(I, a_qdd);
+    for (int k = 0; k < 6; ++k) f_qdd[k] = Ia.v[k];
+    warp::subtree_sum(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
+    Vec6<S> F_total;
+    for (int k = 0; k < 6; ++k) F_total.v[k] = F.v[k] + f_qdd[k];
+    // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc
+    const Vec6<S> Dq = add(add(cross_force(axis, F_total), warp::mul(Ic, beta)),
+                           add(warp::mul(dIc, alpha), cross_force(alpha, momc)));
+    for (int r = 0; r < W; ++r) {
+      const S* other = rows + r * kStride;
+      const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS),
+                    Bc_t_S_r = warp::load(other + Column::kBcTS);
+      const bool up = joint && (ancestors >> r & 1u), down = joint && r > i && r < end;
+      const S q_up = dot(S_r, Dq), q_down = dot(Ic_S_r, beta) + dot(Bc_t_S_r, alpha);
+      dq_col[r] = up ? q_up : down ? q_down : S(0);
+    }
+  }
+
+  g.stamp();  // d tau/d q
+  // outputs: qdd, -M^-1 dc'/du column by column, M^-1, each staged in the rows (free now) as IO
+  // values and written by the whole warp; a value that leaves IO's range or is not finite flags
+  // the state
+  g.sync();
+  S* const stage = rows;
+  bool bad = false;
+  const auto put = [&](int at, S x) {
+    const IO y = static_cast<IO>(x);
+    bad = bad || !is_finite(y);
+    stage[at] = static_cast<S>(y);
+  };
+  if (joint) put(i, qdd);
+  g.sync();
+  g.write_states(stage, b.out[output_index(kOutputQdd)], n);
+  g.sync();
+  // -M^-1 dtau for this lane's columns, both derivatives from the same loads of M^-1's rows
+  S dq_out[W], dqd_out[W];
+  for (int r = 0; r < W; ++r) {
+    const S* minv_row = minv_rows + r * W;
+    S s_dq = S(0), s_dqd = S(0);
+    for (int k = 0; k < W; ++k) {
+      if (k >= n) continue;
+      const S m_rk = minv_row[k];
+      s_dq += m_rk * dq_col[k];
+      s_dqd += m_rk * dqd_col[k];
+    }
+    dq_out[r] = -s_dq;
+    dqd_out[r] = -s_dqd;
+  }
+  const auto write_matrix = [&](const S(&x)[W], std::uint32_t flag) {
+    if (joint)
+      for (int r = 0; r < W; ++r)
+        if (r < n) put(r * n + i, x[r]);
+    g.sync();
+    g.write_states(stage, b.out[output_index(flag)], n * n);
+    g.sync();
+  };
+  if (want_dq) write_matrix(dq_out, kOutputDqddDq);
+  if (want_dqd) write_matrix(dqd_out, kOutputDqddDqd);
+  if ((b.outputs & kOutputMinv) != 0) {
+    if (joint)
+      for (int r = 0; r < n; ++r) put(r * n + i, minv_rows[r * W + i]);
+    g.sync();
+    g.write_states(stage, b.out[output_index(kOutputMinv)], n * n);
+    g.sync();
+  }
+  const bool any_bad = g.any(bad);
+  g.stamp();  // outputs
+  if (i == 0 && active) {
+    if (status == 0 && any_bad) status = not_finite<S>(Algorithm::kFdDerivatives);
+    b.status[state] = status;
+  }
+}
+
+}  // namespace rbdgrad::cuda
