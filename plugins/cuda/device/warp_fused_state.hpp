@@ -182,18 +182,6 @@ template <class S>
 RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
   for (int k = 0; k < 6; ++k) to[k] = x.v[k];
 }
-template <class S>
-RBDGRAD_HD S dot_row(const S* row, const Vec6<S>& x) {
-  S s = row[0] * x.v[0];
-  for (int k = 1; k < 6; ++k) s += row[k] * x.v[k];
-  return s;
-}
-template <class S>
-RBDGRAD_HD S dot_rows(const S* a, const S* b) {
-  S s = a[0] * b[0];
-  for (int k = 1; k < 6; ++k) s += a[k] * b[k];
-  return s;
-}
 
 // where each joint vector sits in a row of the column passes: what a lane reads of the others
 enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18 };
