@@ -32,8 +32,8 @@ inline constexpr int kMaxWarpNv = 16;
 RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <= 16 ? 16 : 0; }
 
 // Scalars of shared memory per state: W rows of kRowStride (the subtree sums' terms, then the
-// joint vectors the column passes read, then the outputs on their way out), M^-1 (W x W,
-// row-major) and tau - c. Odd strides keep a segment's lanes, and the segments of a warp, on
+// joint vectors the column passes read), M^-1 (W x W, row-major) and tau - c; at the end, the
+// outputs on their way out. Odd strides keep a segment's lanes, and the segments of a warp, on
 // different banks.
 template <int W>
 struct WarpShared {
@@ -42,7 +42,7 @@ struct WarpShared {
   static constexpr int kDiff = kMinv + W * W;
   static constexpr int kScalars = kDiff + W + 1;
   static_assert(kScalars % 2 == 1, "an odd number of scalars per state");
-  static_assert(W * kRowStride >= W * W, "the rows hold one output matrix");
+  static_assert(W + 3 * W * W <= kScalars, "a state's region holds its outputs");
 };
 
 // The warp kernel takes what the block kernel takes, in f64, up to kMaxWarpNv joints.
@@ -472,22 +472,11 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   }
 
   g.stamp();  // d tau/d q
-  // outputs: qdd, -M^-1 dc'/du column by column, M^-1, each staged in the rows (free now) as IO
-  // values and written by the whole warp; a value that leaves IO's range or is not finite flags
-  // the state
-  g.sync();
-  S* const stage = rows;
-  bool bad = false;
-  const auto put = [&](int at, S x) {
-    const IO y = static_cast<IO>(x);
-    bad = bad || !is_finite(y);
-    stage[at] = static_cast<S>(y);
-  };
-  if (joint) put(i, qdd);
-  g.sync();
-  g.write_states(stage, b.out[output_index(kOutputQdd)], n);
-  g.sync();
-  // -M^-1 dtau for this lane's columns, both derivatives from the same loads of M^-1's rows
+  // outputs: qdd, -M^-1 dc'/du column by column (both products from one pass over M^-1's rows),
+  // M^-1. Then, every segment done with its shared memory, the warp's regions (consecutive) take
+  // its states' outputs one after the other as IO values, and the whole warp writes each output
+  // out as one block of whole lines (host memory over PCIe for small batches). A value that
+  // leaves IO's range or is not finite flags the state.
   S dq_out[W], dqd_out[W];
   for (int r = 0; r < W; ++r) {
     const S* minv_row = minv_rows + r * W;
@@ -501,23 +490,34 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
     dq_out[r] = -s_dq;
     dqd_out[r] = -s_dqd;
   }
-  const auto write_matrix = [&](const S(&x)[W], std::uint32_t flag) {
-    if (joint)
-      for (int r = 0; r < W; ++r)
-        if (r < n) put(r * n + i, x[r]);
-    g.sync();
-    g.write_states(stage, b.out[output_index(flag)], n * n);
-    g.sync();
+  g.sync();
+  const int n2 = n * n;
+  S* const staged_qdd = g.warp_shared(sh);
+  S* const staged_dq = staged_qdd + Lanes::kSegments * n;
+  S* const staged_dqd = staged_dq + Lanes::kSegments * n2;
+  S* const staged_minv = staged_dqd + Lanes::kSegments * n2;
+  const bool want_minv = (b.outputs & kOutputMinv) != 0;
+  bool bad = false;
+  const auto put = [&](S* to, S x) {
+    const IO y = static_cast<IO>(x);
+    bad = bad || !is_finite(y);
+    *to = static_cast<S>(y);
   };
-  if (want_dq) write_matrix(dq_out, kOutputDqddDq);
-  if (want_dqd) write_matrix(dqd_out, kOutputDqddDqd);
-  if ((b.outputs & kOutputMinv) != 0) {
-    if (joint)
-      for (int r = 0; r < n; ++r) put(r * n + i, minv_rows[r * W + i]);
-    g.sync();
-    g.write_states(stage, b.out[output_index(kOutputMinv)], n * n);
-    g.sync();
+  if (joint) {
+    put(staged_qdd + g.segment * n + i, qdd);
+    for (int r = 0; r < W; ++r) {
+      if (r >= n) continue;
+      const int at = g.segment * n2 + r * n + i;
+      if (want_dq) put(staged_dq + at, dq_out[r]);
+      if (want_dqd) put(staged_dqd + at, dqd_out[r]);
+      if (want_minv) put(staged_minv + at, col[r]);  // M^-1(r, i), as in minv_rows
+    }
   }
+  g.sync();
+  g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
+  if (want_dq) g.write_warp(staged_dq, b.out[output_index(kOutputDqddDq)], n2);
+  if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  if (want_minv) g.write_warp(staged_minv, b.out[output_index(kOutputMinv)], n2);
   const bool any_bad = g.any(bad);
   g.stamp();  // outputs
   if (i == 0 && active) {

@@ -13,6 +13,7 @@ template <int W>
 struct WarpLanes {
   static_assert(W == 8 || W == 16, "a segment is 8 or 16 lanes");
   static constexpr int kWidth = W;
+  static constexpr int kSegments = 32 / W;  // states per warp
   int lane = 0;    // joint index within the segment
   int segment = 0; // the segment's index within its warp
   // the warp's states are consecutive: segment s holds first_state + s; states_in_warp of them
@@ -44,23 +45,24 @@ struct WarpLanes {
     __syncwarp();
 #endif
   }
-  // Writes `count` values per state from each segment's `from` (this segment's, in shared
-  // memory) to out + state * count, the warp's states together: consecutive lanes at
-  // consecutive addresses, whole lines of memory (host memory over PCIe for small batches) rather
-  // than a segment's short rows. out == nullptr: nothing.
+  // The start of the warp's shared memory, given this segment's `region` (the segments' regions
+  // are consecutive, shared_stride scalars each).
+  template <class S>
+  RBDGRAD_HD S* warp_shared(S* region) const {
+    return region - segment * shared_stride;
+  }
+  // Writes the warp's states' `count` values each, staged one state after the other at `staged`
+  // (shared memory), to out + first_state * count: consecutive lanes at consecutive addresses,
+  // whole lines of memory rather than a segment's short rows. out == nullptr: nothing.
   template <class S, class IO>
-  RBDGRAD_HD void write_states(const S* from, IO* out, int count) const {
+  RBDGRAD_HD void write_warp(const S* staged, IO* out, int count) const {
 #if defined(__CUDA_ARCH__)
     if (out == nullptr) return;
-    const S* first = from - segment * shared_stride;
     IO* to = out + first_state * static_cast<std::uint64_t>(count);
     const int total = states_in_warp * count;
-    for (int e = segment * W + lane; e < total; e += 32) {
-      const int s = e / count;
-      to[e] = static_cast<IO>(first[s * shared_stride + (e - s * count)]);
-    }
+    for (int e = segment * W + lane; e < total; e += 32) to[e] = static_cast<IO>(staged[e]);
 #else
-    (void)from;
+    (void)staged;
     (void)out;
     (void)count;
 #endif

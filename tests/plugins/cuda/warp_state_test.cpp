@@ -7,6 +7,7 @@
 // with the block kernel's status.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <barrier>
 #include <cmath>
 #include <cstdio>
@@ -23,79 +24,102 @@
 namespace rbdgrad::testing {
 namespace {
 
-// The W threads of one segment and what they exchange.
-struct HostSegment {
-  explicit HostSegment(int width) : barrier(width), slots(static_cast<std::size_t>(width)) {}
+// The threads of one warp, kSegments segments of W lanes, and what they exchange.
+struct HostWarp {
+  explicit HostWarp(int threads) : barrier(threads), slots(static_cast<std::size_t>(threads)) {}
   std::barrier<> barrier;
   std::vector<double> slots;  // every exchanged value (double or int) fits a double exactly
   bool out_of_range = false;
 };
 
-// The lanes interface of device/warp_lanes.hpp on host threads.
+// The lanes interface of device/warp_lanes.hpp on host threads: lane `lane` of segment `segment`.
+template <int W, int Segments>
 struct HostLanes {
+  static constexpr int kSegments = Segments;
   int lane = 0;
   int segment = 0;
-  HostSegment* seg = nullptr;
-  std::uint64_t first_state = 0;  // the state this segment computes (a warp of one segment)
+  HostWarp* warp = nullptr;
+  std::uint64_t first_state = 0;
+  int states_in_warp = 0;
+  int shared_stride = 0;
 
+  std::size_t slot(int l) const { return static_cast<std::size_t>(segment * W + l); }
   template <class T>
   T shfl(T x, int from) const {
-    seg->slots[static_cast<std::size_t>(lane)] = static_cast<double>(x);
-    seg->barrier.arrive_and_wait();
-    if (from < 0 || from >= static_cast<int>(seg->slots.size())) {
-      seg->out_of_range = true;
+    warp->slots[slot(lane)] = static_cast<double>(x);
+    warp->barrier.arrive_and_wait();
+    if (from < 0 || from >= W) {
+      warp->out_of_range = true;
       from = 0;
     }
-    const T y = static_cast<T>(seg->slots[static_cast<std::size_t>(from)]);
-    seg->barrier.arrive_and_wait();
+    const T y = static_cast<T>(warp->slots[slot(from)]);
+    warp->barrier.arrive_and_wait();
     return y;
   }
-  void sync() const { seg->barrier.arrive_and_wait(); }
+  void sync() const { warp->barrier.arrive_and_wait(); }
   void stamp() const {}
-  template <class S, class IO>
-  void write_states(const S* from, IO* out, int count) const {
-    if (out == nullptr) return;
-    for (int e = lane; e < count; e += static_cast<int>(seg->slots.size()))
-      out[first_state * static_cast<std::uint64_t>(count) + static_cast<std::uint64_t>(e)] = static_cast<IO>(from[e]);
-  }
   bool any(bool p) const {
-    seg->slots[static_cast<std::size_t>(lane)] = p ? 1.0 : 0.0;
-    seg->barrier.arrive_and_wait();
+    warp->slots[slot(lane)] = p ? 1.0 : 0.0;
+    warp->barrier.arrive_and_wait();
     bool found = false;
-    for (double s : seg->slots) found = found || s != 0.0;
-    seg->barrier.arrive_and_wait();
+    for (int l = 0; l < W; ++l) found = found || warp->slots[slot(l)] != 0.0;
+    warp->barrier.arrive_and_wait();
     return found;
+  }
+  template <class S>
+  S* warp_shared(S* region) const {
+    return region - segment * shared_stride;
+  }
+  template <class S, class IO>
+  void write_warp(const S* staged, IO* out, int count) const {
+    if (out == nullptr) return;
+    IO* to = out + first_state * static_cast<std::uint64_t>(count);
+    for (int e = segment * W + lane; e < states_in_warp * count; e += W * Segments) to[e] = static_cast<IO>(staged[e]);
   }
 };
 
-// Every state of the batch, one after the other, on one segment of W host threads.
-template <int W, class IO>
-std::vector<std::uint32_t> run_warp_on_host(const Model& model, CudaBatch<IO>& a, const OutputCase& c, bool tau_input) {
+// The batch's states on warps of `Segments` segments of W host threads each, one warp after the
+// other, as the kernel's entry lays them out (warp_kernel.cu): the last warp's segments past the
+// end of the batch compute its last state and write nothing.
+template <int W, int Segments, class IO>
+std::vector<std::uint32_t> run_warps_on_host(const Model& model, CudaBatch<IO>& a, const OutputCase& c,
+                                             bool tau_input) {
   const cuda::FlatModel<double> flat(model);
   const cuda::ModelView<double> m(flat.host_view());
-  std::vector<double> shared(cuda::WarpShared<W>::kScalars, poison<double>());
+  constexpr int kStride = cuda::WarpShared<W>::kScalars;
+  std::vector<double> shared(static_cast<std::size_t>(kStride * Segments), poison<double>());
   cuda::BatchPointers<IO> b = a.pointers(c, tau_input);
   std::vector<std::uint32_t> status(a.n, 0xffffffffu);
   b.status = status.data();
-  HostSegment seg(W);
-  std::vector<std::thread> lanes;
-  for (int lane = 0; lane < W; ++lane)
-    lanes.emplace_back([&, lane] {
-      HostLanes g{lane, 0, &seg};
-      for (std::size_t k = 0; k < a.n; ++k) {
-        g.first_state = k;
-        cuda::warp_evaluate_state<W, double, IO, cuda::block_stages::kPerBatch>(m, shared.data(), b, k, true, g);
+  HostWarp warp(W * Segments);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < W * Segments; ++t)
+    threads.emplace_back([&, t] {
+      HostLanes<W, Segments> g;
+      g.lane = t % W;
+      g.segment = t / W;
+      g.warp = &warp;
+      g.shared_stride = kStride;
+      for (std::size_t first = 0; first < a.n; first += Segments) {
+        const std::size_t k = first + static_cast<std::size_t>(g.segment);
+        g.first_state = first;
+        g.states_in_warp = static_cast<int>(std::min<std::size_t>(a.n - first, Segments));
+        cuda::warp_evaluate_state<W, double, IO, cuda::block_stages::kPerBatch>(
+            m, shared.data() + g.segment * kStride, b, k < a.n ? k : a.n - 1, k < a.n, g);
       }
     });
-  for (std::thread& t : lanes) t.join();
-  EXPECT_FALSE(seg.out_of_range) << "a shuffle read a lane outside the segment";
+  for (std::thread& t : threads) t.join();
+  EXPECT_FALSE(warp.out_of_range) << "a shuffle read a lane outside the segment";
   return status;
 }
 
+// One segment per warp (the fewest threads); full_warps: 32 / W segments, as on the GPU.
 template <class IO>
-std::vector<std::uint32_t> run_warp(const Model& model, CudaBatch<IO>& a, const OutputCase& c, bool tau_input) {
-  return cuda::warp_segment_width(model.nv) == 8 ? run_warp_on_host<8>(model, a, c, tau_input)
-                                                 : run_warp_on_host<16>(model, a, c, tau_input);
+std::vector<std::uint32_t> run_warp(const Model& model, CudaBatch<IO>& a, const OutputCase& c, bool tau_input,
+                                    bool full_warps = false) {
+  if (cuda::warp_segment_width(model.nv) == 8)
+    return full_warps ? run_warps_on_host<8, 4>(model, a, c, tau_input) : run_warps_on_host<8, 1>(model, a, c, tau_input);
+  return full_warps ? run_warps_on_host<16, 2>(model, a, c, tau_input) : run_warps_on_host<16, 1>(model, a, c, tau_input);
 }
 
 template <class IO>
@@ -129,6 +153,26 @@ TEST_P(WarpStateOnHost, F32BatchComputedInF64MatchesCore) { check_robot<float>(G
 // a branching tree of 12 joints with prismatic ones
 INSTANTIATE_TEST_SUITE_P(Robots, WarpStateOnHost, ::testing::Values("iiwa14", "panda", "hyq", "random_tree"),
                          [](const auto& param_info) { return std::string(param_info.param); });
+
+// Whole warps (4 states of iiwa14, 2 of hyq per warp) and batches that end inside a warp: the
+// warp's states write their outputs together, each where it belongs.
+TEST(WarpStateOnHost, WholeWarpsWriteEachStatesOutputs) {
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    const Model model = robot_model(robot);
+    for (const std::size_t n : {1u, 5u, 7u}) {
+      const std::vector<StateInputs> states = random_inputs(model, n, 23);
+      const OutputCase& c = kBlockCases[1];
+      CudaBatch<double> a(states, model.nv, true);
+      a.poison();
+      const std::vector<std::uint32_t> status = run_warp(model, a, c, true, true);
+      const std::string where = std::string(robot) + ", " + std::to_string(n) + " states";
+      for (std::size_t k = 0; k < n; ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
+      const Comparison cmp = compare_with_core(model, a, c, true);
+      ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
+      EXPECT_TRUE(cmp.within_bounds<double>()) << where << ": " << cmp.summary();
+    }
+  }
+}
 
 TEST(WarpKernel, SegmentWidthHoldsTheModel) {
   EXPECT_EQ(cuda::warp_segment_width(1), 8);
