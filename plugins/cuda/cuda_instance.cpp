@@ -221,7 +221,6 @@ bool CudaInstance::use_warp_kernel(const BatchPointers<S>& batch) const {
   else return false;
 }
 
-
 template <class C, class S>
 cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
                                        cudaStream_t stream) const {

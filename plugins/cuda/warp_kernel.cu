@@ -15,16 +15,19 @@ cudaError_t read_warp_stage_clocks(long long* out, int count) {
 template <int W, class IO>
 __global__ void __launch_bounds__(kWarpKernelThreads) warp_fused_kernel(ModelView<double> model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
-  constexpr int kPerWarp = 32 / W;
+  constexpr int kPerWarp = WarpLanes<W>::kSegments;
   const int tid = static_cast<int>(threadIdx.x);
   WarpLanes<W> g;
   g.lane = tid % W;
   g.segment = (tid % 32) / W;
+  // the block's states one per segment, in order: a warp's states are consecutive
   const int slot = (tid / 32) * kPerWarp + g.segment;
-  const std::uint64_t k = static_cast<std::uint64_t>(blockIdx.x) * (blockDim.x / W) + static_cast<std::uint64_t>(slot);
+  const std::uint64_t k =
+      static_cast<std::uint64_t>(blockIdx.x) * (blockDim.x / W) + static_cast<std::uint64_t>(slot);
   const bool active = k < batch.n;
   g.first_state = k - static_cast<std::uint64_t>(g.segment);
-  g.states_in_warp = g.first_state >= batch.n ? 0 : static_cast<int>(min(batch.n - g.first_state, std::uint64_t{kPerWarp}));
+  g.states_in_warp =
+      g.first_state >= batch.n ? 0 : static_cast<int>(min(batch.n - g.first_state, std::uint64_t{kPerWarp}));
   g.shared_stride = WarpShared<W>::kScalars;
 #if defined(RBDGRAD_BLOCK_PASS_TIMING)
   if (k == 0) {

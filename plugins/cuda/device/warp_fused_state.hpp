@@ -13,7 +13,9 @@
 //   of zero mass) and h = I v the momentum: sums over a subtree stay in that form (26 values);
 // - the columns of M, d tau/d qd, d tau/d q and of the final -M^-1 dc'/du one per lane;
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
-//   a state fails at the same joint for the same reason.
+//   a state fails at the same joint for the same reason;
+// - the outputs staged in shared memory, a warp's states one after the other, and written by the
+//   whole warp as whole lines.
 // It computes in f64 (S = double: the GPUs whose f64 is fast, where f32 batches run in f64 as
 // well); f32 batches elsewhere take the block kernel.
 #pragma once
@@ -24,8 +26,9 @@
 namespace rbdgrad::cuda {
 
 // The largest model the warp kernel takes: half a warp per state. A whole warp per state (32
-// joints) made talos_reduced's columns long serial loops, about twice as slow as the block kernel
-// up to 4096 states and no faster above (docs/benchmarks/cuda.md, runs 40 and 41).
+// joints: 255 registers with spills, columns as 32-step loops) made talos_reduced 1.2-2x slower
+// than on the block kernel up to 1024 states and 1.07x at 4096, faster only from 16384
+// (docs/benchmarks/cuda.md, run 40).
 inline constexpr int kMaxWarpNv = 16;
 
 // The segment width for nv joints: 8 or 16 lanes (0: too large for the warp kernel).

@@ -39,7 +39,8 @@ struct WarpLanes {
     return x;
 #endif
   }
-  // orders the segment's shared-memory writes before its later reads
+  // orders the warp's shared-memory writes before its later reads (the whole warp: its segments
+  // stage their outputs in each other's regions)
   RBDGRAD_HD void sync() const {
 #if defined(__CUDA_ARCH__)
     __syncwarp();
