@@ -219,12 +219,7 @@ void BM_SkipCost(benchmark::State& st, const char* robot, unsigned columns) {
   }
   long passes = 0;
   const std::array<double, 3> ns = bench::time_rotating_ways<3>(st, run, passes);
-  const double states = static_cast<double>(passes) * kPoolSize;
-  st.counters["full_ns"] = ns[0] / states;
-  st.counters["mode_ns"] = ns[1] / states;
-  st.counters["fixed_ns"] = ns[2] / states;
-  st.counters["speedup"] = ns[0] / ns[1];
-  st.counters["mode_over_fixed"] = ns[1] / ns[2];
+  bench::report_three_ways(st, ns, static_cast<double>(passes) * kPoolSize, {"full", "mode", "fixed"});
   fpga::LatencyEstimate variant, full;
   const Model& m = robot_model(robot);
   if (!fpga::estimate_latency(m, fpga::KernelTiming{}, 1, fpga::InputKind::kTau, columns, variant) ||

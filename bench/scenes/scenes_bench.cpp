@@ -255,12 +255,7 @@ void bench(benchmark::State& state, const Robot* robot, const Robot* full_robot)
         benchmark::DoNotOptimize(s);
       },
       passes);
-  const double states = static_cast<double>(passes) * kPoolSize;
-  state.counters["full_ns"] = ns[0] / states;
-  state.counters["plan_ns"] = ns[1] / states;
-  state.counters["direct_ns"] = ns[2] / states;
-  state.counters["speedup"] = ns[0] / ns[1];
-  state.counters["plan_over_direct"] = ns[1] / ns[2];
+  bench::report_three_ways(state, ns, static_cast<double>(passes) * kPoolSize, {"full", "plan", "direct"});
   state.SetLabel("nv=" + std::to_string(variant.m.nv));
 }
 

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <chrono>
+#include <string>
 
 namespace rbdgrad::bench {
 
@@ -29,6 +30,15 @@ std::array<double, kWays> time_rotating_ways(benchmark::State& state, Run&& run,
     ++passes;
   }
   return ns;
+}
+
+/// The counters of three ways timed over `states` states in all: "<name>_ns" per state for each,
+/// "speedup" (way 0 over way 1) and "<names[1]>_over_<names[2]>".
+inline void report_three_ways(benchmark::State& state, const std::array<double, 3>& ns, double states,
+                              const std::array<const char*, 3>& names) {
+  for (int k = 0; k < 3; ++k) state.counters[std::string(names[k]) + "_ns"] = ns[k] / states;
+  state.counters["speedup"] = ns[0] / ns[1];
+  state.counters[std::string(names[1]) + "_over_" + names[2]] = ns[1] / ns[2];
 }
 
 }  // namespace rbdgrad::bench

@@ -80,6 +80,13 @@ RBDGRAD_HD Vec6<S> add(const Vec6<S>& a, const Vec6<S>& b) {
 }
 
 template <class S>
+RBDGRAD_HD Vec6<S> sub(const Vec6<S>& a, const Vec6<S>& b) {
+  Vec6<S> out;
+  for (int k = 0; k < 6; ++k) out.v[k] = a.v[k] - b.v[k];
+  return out;
+}
+
+template <class S>
 RBDGRAD_HD Vec6<S> scaled(const Vec6<S>& a, S s) {
   Vec6<S> out;
   for (int k = 0; k < 6; ++k) out.v[k] = a.v[k] * s;

@@ -125,12 +125,6 @@ RBDGRAD_HD Inertia<S> unpack(const S* from) {
   return I;
 }
 
-template <class S>
-RBDGRAD_HD Vec6<S> sub(const Vec6<S>& a, const Vec6<S>& b) {
-  Vec6<S> out;
-  for (int k = 0; k < 6; ++k) out.v[k] = a.v[k] - b.v[k];
-  return out;
-}
 
 // The 2^r-th ancestor of each lane's joint (-1 past the root), r < kMaxRounds.
 constexpr int kMaxRounds = 5;
@@ -342,7 +336,7 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   Vec6<S> a = scaled(alpha, qd);
   warp::ancestor_sum(a, jumps, g);
   a = add(a, gravity);
-  const Vec6<S> f = warp::sub(add(warp::mul(I, a), cross_force(v, mom)), f_ext);
+  const Vec6<S> f = sub(add(warp::mul(I, a), cross_force(v, mom)), f_ext);
 
   g.stamp();  // velocities, accelerations, forces
   // subtree sums: composite inertia, its rate, momentum and force
@@ -371,7 +365,7 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   const Vec6<S> Ic_S = warp::mul(Ic, axis);
   const Vec6<S> dIc_S = warp::mul(dIc, axis);
   const Vec6<S> S_x_momc = cross_force(axis, momc);
-  const Vec6<S> Bc_t_S = warp::sub(dIc_S, S_x_momc);
+  const Vec6<S> Bc_t_S = sub(dIc_S, S_x_momc);
   S* const row = rows + i * kStride;
   warp::store(row + Column::kAxis, axis);
   warp::store(row + Column::kIcS, Ic_S);

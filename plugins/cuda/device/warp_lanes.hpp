@@ -12,7 +12,6 @@ namespace rbdgrad::cuda {
 template <int W>
 struct WarpLanes {
   static_assert(W == 8 || W == 16, "a segment is 8 or 16 lanes");
-  static constexpr int kWidth = W;
   static constexpr int kSegments = 32 / W;  // states per warp
   int lane = 0;    // joint index within the segment
   int segment = 0; // the segment's index within its warp
