@@ -188,6 +188,24 @@ Kernel pipeline(std::size_t chunks) {
   k.options.mapped_pinned_max_kib = 0;  // copies at every size measured
   return k;
 }
+// the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
+Kernel warp_outputs(bool early) {
+  Kernel k{early ? "early" : "late", {}};
+  k.options.warp_early_outputs_min_bytes = early ? 0 : ~std::uint64_t{0};
+  return k;
+}
+// the defaults with a small batch's inputs in the warp kernel's parameters or read from host memory
+Kernel warp_inputs(bool in_parameters) {
+  Kernel k{in_parameters ? "params" : "hostmem", {}};
+  k.options.warp_inline_inputs = in_parameters;
+  return k;
+}
+// the defaults checking from `bytes` of inputs and outputs whether the caller's arrays are pinned
+Kernel pinned_check(std::size_t bytes) {
+  Kernel k{"check" + std::to_string(bytes), {}};
+  k.options.pinned_check_min_bytes = bytes;
+  return k;
+}
 Kernel block_kernel(int threads_per_state, int states_per_block) {
   Kernel k{"block" + std::to_string(threads_per_state) + "x" + std::to_string(states_per_block), {}};
   k.options.block_shape = {threads_per_state, states_per_block};
@@ -244,6 +262,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   state.counters["kernel_us"] = 1e3 * kernel_ms / timed_calls;
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
   state.counters["warp_kernel"] = instance->last_used_warp_kernel() ? 1 : 0;
+  state.counters["inline_inputs"] = instance->last_used_inline_inputs() ? 1 : 0;
   state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
   state.counters["f32_in_f64"] = instance->last_computed_f32_in_f64() ? 1 : 0;
   state.counters["chunks"] = static_cast<double>(instance->last_chunks());
@@ -292,6 +311,25 @@ const bool registered = [] {
         add<float>("cuda_warp", robot, n, kernel);
         add<double>("cuda_warp", robot, n, kernel);
       }
+  // cuda_warp_outputs: the warp kernel's first outputs written early or at the end, by size
+  for (std::size_t n : {16, 32, 64, 128, 256, 512, 1024, 4096})
+    for (const bool early : {true, false}) {
+      add<float>("cuda_warp_outputs", "iiwa14", n, warp_outputs(early));
+      add<double>("cuda_warp_outputs", "iiwa14", n, warp_outputs(early));
+    }
+  // cuda_warp_inputs: small batches' inputs in the kernel's parameters or from host memory
+  for (std::size_t n : {16, 32, 48})
+    for (const bool in_parameters : {true, false}) {
+      add<float>("cuda_warp_inputs", "iiwa14", n, warp_inputs(in_parameters));
+      add<double>("cuda_warp_inputs", "iiwa14", n, warp_inputs(in_parameters));
+    }
+  // cuda_pinned_check: small batches checking whether the caller's arrays are pinned (kernel in
+  // place) against the default threshold (staged below it)
+  for (std::size_t n : {16, 32, 64, 128, 256})
+    for (std::size_t bytes : {std::size_t{0}, std::size_t{16} << 10, std::size_t{64} << 10}) {
+      add<float>("cuda_pinned_check", "iiwa14", n, pinned_check(bytes));
+      add<double>("cuda_pinned_check", "iiwa14", n, pinned_check(bytes));
+    }
   // cuda_concurrent: 1, 2 and 4 instances computing at once (states_per_s is their sum)
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (std::size_t n : {16, 256})

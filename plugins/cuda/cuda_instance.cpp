@@ -223,9 +223,11 @@ bool CudaInstance::use_warp_kernel(const BatchPointers<S>& batch) const {
 
 template <class C, class S>
 cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                       cudaStream_t stream) const {
+                                       bool inline_inputs, cudaStream_t stream) const {
   if constexpr (std::is_same_v<C, double>)
-    if (warp) return launch_warp_fused<S>(view<double>(), batch, stream);
+    if (warp)
+      return launch_warp_fused<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes,
+                                  inline_inputs ? &inline_inputs_ : nullptr, stream);
   const SpecializedBlockKernel* specific = specialized<C, S>();
   return specific ? specific->launch<C, S>(view<C>(), batch, shape, stream)
                   : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
@@ -240,22 +242,22 @@ int CudaInstance::block_stages() const {
 
 template <class C, class S>
 cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                             cudaStream_t stream) {
+                                             bool inline_inputs, cudaStream_t stream) {
   KernelLaunch launch;
   const SpecializedBlockKernel* specific = specialized<C, S>();
   if (std::is_same_v<C, double> && warp)
-    launch = warp_fused_launch<S>(view<double>(), batch);
+    launch = warp_fused_launch<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes, inline_inputs);
   else if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
     launch = block_fused_launch<C, S>(view<C>(), batch, shape);
   ModelView<C> model_arg = view<C>();
   BatchPointers<S> batch_arg = batch;
-  void* args[] = {&model_arg, &batch_arg};
+  void* args[] = {&model_arg, &batch_arg, &inline_inputs_};
   if (graphs_.launch(launch, args, stream) == cudaSuccess) {
     last_graph_ = true;
     return cudaSuccess;
   }
   cudaGetLastError();  // the graph failed: the usual launch
-  return launch_block<C, S>(batch, shape, warp, stream);
+  return launch_block<C, S>(batch, shape, warp, inline_inputs, stream);
 }
 
 Status CudaInstance::specialize(const std::string& cache_dir) {
@@ -335,13 +337,13 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   auto* h_out = h_out_.as<unsigned char>();
   // The caller's pinned arrays go straight to and from the device, or with mapped memory are the
   // kernel's own inputs and outputs; a check costs about a microsecond, so batches smaller than
-  // kMappedPinnedCheckMinBytes are staged unchecked.
+  // pinned_check_min_bytes are staged unchecked.
   const std::size_t io_bytes = in_layout.size() + out_layout.size();
   unsigned char* in_device[5] = {};
   unsigned char* out_device[kOutputCount] = {};
   bool in_pinned[5] = {}, out_pinned[kOutputCount] = {};
   bool any_pinned = false, all_pinned = true;
-  if (io_bytes >= kMappedPinnedCheckMinBytes) {
+  if (io_bytes >= kernel_.pinned_check_min_bytes) {
     for (int k = 0; k < 5; ++k) {
       if (!inputs[k].from) continue;
       in_device[k] = pinned_device_address(inputs[k].from);
@@ -392,6 +394,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     return s;
   };
 
+  // a small warp-kernel batch without copies: q, qd and u in the kernel's parameters
+  const bool inline_inputs = warp && mapped && !pipelined && kernel_.warp_inline_inputs && !inputs[3].from &&
+                             !inputs[4].from && inputs[0].from && inputs[1].from && inputs[2].from &&
+                             3 * vec <= kWarpInlineInputBytes;
   const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv, n);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
@@ -406,7 +412,9 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // the host's part, overlapping the device's work on the previous chunk
     HostCopy staging[5];
     std::size_t staged = 0;
-    for (int k = 0; k < 5; ++k) {
+    for (int k = 0; k < 3 && inline_inputs; ++k)
+      staging[staged++] = {inline_inputs_.bytes + k * vec, static_cast<const unsigned char*>(inputs[k].from), vec};
+    for (int k = 0; k < 5 && !inline_inputs; ++k) {
       if (!inputs[k].from || in_pinned[k]) continue;
       staging[staged++] = {h_in + inputs[k].at + a * in_per_state[k] * sizeof(S),
                            static_cast<const unsigned char*>(inputs[k].from) + a * in_per_state[k] * sizeof(S),
@@ -453,10 +461,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // one launch and no copies: as a CUDA Graph, which costs the host less (kernel_graphs.hpp)
     const bool graph = block && kernel_.graphs && mapped && !pipelined && !kernel_.time_kernel;
     const cudaError_t launched = !block  ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
-                                 : graph ? (wide ? launch_block_graph<double>(p, shape, warp, stream)
-                                                 : launch_block_graph<S>(p, shape, warp, stream))
-                                 : wide  ? launch_block<double>(p, shape, warp, stream)
-                                         : launch_block<S>(p, shape, warp, stream);
+                                 : graph ? (wide ? launch_block_graph<double>(p, shape, warp, inline_inputs, stream)
+                                                 : launch_block_graph<S>(p, shape, warp, inline_inputs, stream))
+                                 : wide  ? launch_block<double>(p, shape, warp, inline_inputs, stream)
+                                         : launch_block<S>(p, shape, warp, inline_inputs, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     // each runtime call costs about a microsecond of a small batch's time: only the events used
     if (pipelined || kernel_.time_kernel)
@@ -515,6 +523,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   }
   last_block_ = block;
   last_warp_ = warp;
+  last_inline_ = inline_inputs;
   last_specific_ = block && !warp && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
   last_f32_in_f64_ = wide;
   last_chunks_ = chunks;

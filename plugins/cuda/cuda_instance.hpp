@@ -74,9 +74,11 @@ inline constexpr int kThreadKernelMaxNv = 16;
 // docs/benchmarks/cuda.md.
 inline constexpr std::size_t kDefaultMappedIoMaxKib = 320;
 // Batches of at least this many bytes (inputs and outputs) check whether the caller's arrays are
-// pinned, so that the copies or the kernel use them in place instead of staging them: the checks
-// cost about 1 us each, a staging copy of this size about as much as all of them.
-inline constexpr std::size_t kMappedPinnedCheckMinBytes = 64 * 1024;
+// pinned, so that the copies or the kernel use them in place instead of staging them
+// (KernelOptions::pinned_check_min_bytes). On the H200 (run 46) checking from 16 KiB made iiwa14
+// f64 at 64 states 20.2 us end to end instead of 22.8, f32 at 128 21.0 instead of 23.2, and
+// changed nothing at 16 and 32 states.
+inline constexpr std::size_t kMappedPinnedCheckMinBytes = 16 * 1024;
 // Batches whose arrays are all pinned skip the device copies up to this many KiB (the plugin's
 // option mapped_pinned_max_kib): the kernel reads and writes them in place over PCIe, which hides
 // the transfers behind the kernel. On the H200 (run 28) that is faster up to about 4 MB: iiwa14 f64
@@ -101,6 +103,8 @@ struct KernelOptions {
   BlockShape block_shape;
   std::size_t mapped_io_max_kib = kDefaultMappedIoMaxKib;
   std::size_t mapped_pinned_max_kib = kDefaultMappedPinnedMaxKib;
+  // batches of at least this many bytes check whether the caller's arrays are pinned
+  std::size_t pinned_check_min_bytes = kMappedPinnedCheckMinBytes;
   // the block kernel compiled for the robot (specialize()) where there is one, else the generic
   bool robot_specific = true;
   // CUDA events around the kernels, for last_kernel_ms (benchmarks): two more calls per batch
@@ -110,6 +114,12 @@ struct KernelOptions {
   // gradient batches computed in f64 on models of up to kMaxWarpNv joints run the warp kernel
   // (warp_launch.hpp) instead of the block kernel
   bool warp_kernel = true;
+  // warp-kernel batches with at least this many bytes of outputs write the first ones early
+  // (warp_launch.hpp)
+  std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;
+  // a warp-kernel batch without copies whose q, qd and u fit kWarpInlineInputBytes (and no
+  // external forces or M^-1) carries them in the kernel's parameters
+  bool warp_inline_inputs = true;
   ChunkRule chunks;
   F32Compute f32_compute = F32Compute::kAuto;
 };
@@ -168,6 +178,8 @@ class CudaInstance {
   bool last_used_mapped_io() const { return last_mapped_; }
   /// Whether the last successful compute() ran the warp kernel (one of the block kernel's requests).
   bool last_used_warp_kernel() const { return last_warp_; }
+  /// Whether it carried its inputs in the warp kernel's parameters (KernelOptions::warp_inline_inputs).
+  bool last_used_inline_inputs() const { return last_inline_; }
   /// Whether the last successful compute() ran the block kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many chunks the last successful compute() went in (chunk_states).
@@ -202,14 +214,15 @@ class CudaInstance {
   template <class C, class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
   // whether a block-kernel batch computed in C runs the warp kernel instead
   template <class C, class S> bool use_warp_kernel(const BatchPointers<S>& batch) const;
-  // the block kernel, or with `warp` (computing in f64) the warp kernel
+  // the block kernel, or with `warp` (computing in f64) the warp kernel, its inputs from
+  // inline_inputs_ with `inline_inputs`
   template <class C, class S>
-  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
+  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp, bool inline_inputs,
                            cudaStream_t stream) const;
   // the same as a CUDA Graph (graphs_), else as launch_block
   template <class C, class S>
   cudaError_t launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                 cudaStream_t stream);
+                                 bool inline_inputs, cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
@@ -238,6 +251,8 @@ class CudaInstance {
   bool last_mapped_ = false;
   bool last_specific_ = false;
   bool last_warp_ = false;
+  bool last_inline_ = false;
+  WarpInlineInputs inline_inputs_{};  // a small batch's inputs for the warp kernel's parameters
   bool last_f32_in_f64_ = false;
   bool last_graph_ = false;
   KernelGraphs graphs_;

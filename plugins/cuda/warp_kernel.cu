@@ -1,5 +1,6 @@
 // The warp kernel for any robot of up to kMaxWarpNv joints (device/warp_fused_state.hpp), one
-// instantiation per segment width (8 or 16 lanes).
+// instantiation per segment width (8 or 16 lanes), place of the first outputs and place of the
+// inputs.
 #include "warp_launch.hpp"
 
 namespace rbdgrad::cuda {
@@ -12,8 +13,9 @@ cudaError_t read_warp_stage_clocks(long long* out, int count) {
 }
 #endif
 
-template <int W, class IO>
-__global__ void __launch_bounds__(kWarpKernelThreads) warp_fused_kernel(ModelView<double> model, BatchPointers<IO> batch) {
+// The states of `batch` on the block's warps; kEarlyOutputs: warp_evaluate_state's early_outputs.
+template <int W, class IO, bool kEarlyOutputs>
+__device__ __forceinline__ void warp_fused_block(const ModelView<double>& model, const BatchPointers<IO>& batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   constexpr int kPerWarp = WarpLanes<W>::kSegments;
   const int tid = static_cast<int>(threadIdx.x);
@@ -35,46 +37,83 @@ __global__ void __launch_bounds__(kWarpKernelThreads) warp_fused_kernel(ModelVie
     g.clocks = g_warp_stage_clocks + 1;
   }
 #endif
-  double* sh = reinterpret_cast<double*>(shared) + slot * WarpShared<W>::kScalars;
-  warp_evaluate_state<W, double, IO, block_stages::kPerBatch>(model, sh, batch, active ? k : batch.n - 1, active, g);
+  double* sh = reinterpret_cast<double*>(shared) + (tid / 32) * WarpShared<W>::warp_scalars(kPerWarp) +
+               g.segment * WarpShared<W>::kScalars;
+  warp_evaluate_state<W, double, IO, block_stages::kPerBatch>(model, sh, batch, active ? k : batch.n - 1, active,
+                                                               kEarlyOutputs, g);
+}
+
+template <int W, class IO, bool kEarlyOutputs>
+__global__ void __launch_bounds__(kWarpKernelThreads) warp_fused_kernel(ModelView<double> model, BatchPointers<IO> batch) {
+  warp_fused_block<W, IO, kEarlyOutputs>(model, batch);
+}
+
+// The same with the inputs in the parameters (read in place: __grid_constant__, no copy)
+template <int W, class IO>
+__global__ void __launch_bounds__(kWarpKernelThreads)
+    warp_fused_inline_kernel(ModelView<double> model, BatchPointers<IO> batch,
+                             const __grid_constant__ WarpInlineInputs inputs) {
+  const IO* in = reinterpret_cast<const IO*>(inputs.bytes);
+  const std::uint64_t values = batch.n * static_cast<std::uint64_t>(model.nv);
+  batch.q = in;
+  batch.qd = in + values;
+  batch.u = in + 2 * values;
+  warp_fused_block<W, IO, false>(model, batch);
 }
 
 namespace {
 
-template <class IO>
-KernelLaunch launch_for(int W, std::uint64_t n) {
-  KernelLaunch l;
-  const int per_block = kWarpKernelThreads / W;
-  l.function = W == 8 ? reinterpret_cast<const void*>(warp_fused_kernel<8, IO>)
-                      : reinterpret_cast<const void*>(warp_fused_kernel<16, IO>);
-  const int scalars = W == 8 ? WarpShared<8>::kScalars : WarpShared<16>::kScalars;
-  l.grid = dim3(static_cast<unsigned>((n + per_block - 1) / per_block));
-  l.block = dim3(kWarpKernelThreads);
-  l.shared_bytes = static_cast<std::size_t>(scalars) * sizeof(double) * static_cast<std::size_t>(per_block);
-  return l;
+template <int W, class IO>
+const void* kernel_for(bool early_outputs, bool inline_inputs) {
+  if (inline_inputs) return reinterpret_cast<const void*>(warp_fused_inline_kernel<W, IO>);
+  return early_outputs ? reinterpret_cast<const void*>(warp_fused_kernel<W, IO, true>)
+                       : reinterpret_cast<const void*>(warp_fused_kernel<W, IO, false>);
 }
 
 }  // namespace
 
 template <class IO>
-KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointers<IO>& batch) {
-  return launch_for<IO>(warp_segment_width(model.nv), batch.n);
+KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointers<IO>& batch,
+                               std::uint64_t early_outputs_min_bytes, bool inline_inputs) {
+  const int W = warp_segment_width(model.nv);
+  const std::uint64_t n = batch.n;
+  KernelLaunch l;
+  const int per_block = kWarpKernelThreads / W;
+  // the outputs' bytes: qdd n x nv, the matrices n x nv x nv each
+  const std::uint64_t nv = static_cast<std::uint64_t>(model.nv);
+  std::uint64_t per_state = batch.out[output_index(kOutputQdd)] ? nv : 0;
+  for (const std::uint32_t f : {kOutputMinv, kOutputDqddDq, kOutputDqddDqd})
+    if (batch.out[output_index(f)]) per_state += nv * nv;
+  const bool early = n * per_state * sizeof(IO) >= early_outputs_min_bytes;
+  l.function = W == 8 ? kernel_for<8, IO>(early, inline_inputs) : kernel_for<16, IO>(early, inline_inputs);
+  const int warp_scalars = W == 8 ? WarpShared<8>::warp_scalars(WarpLanes<8>::kSegments)
+                                  : WarpShared<16>::warp_scalars(WarpLanes<16>::kSegments);
+  l.grid = dim3(static_cast<unsigned>((n + per_block - 1) / per_block));
+  l.block = dim3(kWarpKernelThreads);
+  l.shared_bytes = static_cast<std::size_t>(warp_scalars) * sizeof(double) * (kWarpKernelThreads / 32);
+  return l;
 }
 
 template <class IO>
-cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointers<IO>& batch, cudaStream_t stream) {
-  const KernelLaunch l = warp_fused_launch(model, batch);
+cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointers<IO>& batch,
+                              std::uint64_t early_outputs_min_bytes, const WarpInlineInputs* inline_inputs,
+                              cudaStream_t stream) {
+  const KernelLaunch l = warp_fused_launch(model, batch, early_outputs_min_bytes, inline_inputs != nullptr);
   ModelView<double> model_arg = model;
   BatchPointers<IO> batch_arg = batch;
-  void* args[] = {&model_arg, &batch_arg};
+  void* args[] = {&model_arg, &batch_arg, const_cast<WarpInlineInputs*>(inline_inputs)};
   if (const cudaError_t e = cudaLaunchKernel(l.function, l.grid, l.block, args, l.shared_bytes, stream); e != cudaSuccess)
     return e;
   return cudaGetLastError();
 }
 
-template KernelLaunch warp_fused_launch<double>(const ModelView<double>&, const BatchPointers<double>&);
-template KernelLaunch warp_fused_launch<float>(const ModelView<double>&, const BatchPointers<float>&);
-template cudaError_t launch_warp_fused<double>(const ModelView<double>&, const BatchPointers<double>&, cudaStream_t);
-template cudaError_t launch_warp_fused<float>(const ModelView<double>&, const BatchPointers<float>&, cudaStream_t);
+template KernelLaunch warp_fused_launch<double>(const ModelView<double>&, const BatchPointers<double>&,
+                                                std::uint64_t, bool);
+template KernelLaunch warp_fused_launch<float>(const ModelView<double>&, const BatchPointers<float>&, std::uint64_t,
+                                               bool);
+template cudaError_t launch_warp_fused<double>(const ModelView<double>&, const BatchPointers<double>&, std::uint64_t,
+                                               const WarpInlineInputs*, cudaStream_t);
+template cudaError_t launch_warp_fused<float>(const ModelView<double>&, const BatchPointers<float>&, std::uint64_t,
+                                              const WarpInlineInputs*, cudaStream_t);
 
 }  // namespace rbdgrad::cuda

@@ -23,6 +23,18 @@ template <class S> struct Mat6 { S m[36]; };  // (i, j) at 6 i + j
 template <class S>
 RBDGRAD_HD bool is_finite(S x) { return x - x == S(0); }
 
+// 1 / x, correctly rounded: the device's reciprocal instruction sequence is shorter than its
+// division's
+template <class S>
+RBDGRAD_HD S reciprocal(S x) {
+#if defined(__CUDA_ARCH__)
+  if constexpr (sizeof(S) == sizeof(double)) return __drcp_rn(x);
+  else return __frcp_rn(x);
+#else
+  return S(1) / x;
+#endif
+}
+
 template <class S, int N>
 RBDGRAD_HD void set_zero(S (&a)[N]) {
   for (int k = 0; k < N; ++k) a[k] = S(0);

@@ -34,10 +34,13 @@ inline constexpr int kMaxWarpNv = 16;
 // The segment width for nv joints: 8 or 16 lanes (0: too large for the warp kernel).
 RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <= 16 ? 16 : 0; }
 
-// Scalars of shared memory per state: W rows of kRowStride (the subtree sums' terms, then the
-// joint vectors the column passes read), M^-1 (W x W, row-major) and tau - c; at the end, the
-// outputs on their way out. Odd strides keep a segment's lanes, and the segments of a warp, on
-// different banks.
+// Shared memory of a warp: its segments' regions one after the other, kScalars each, then
+// kEarlyOutputs per segment for the outputs that go out before d tau/d q is computed (with
+// early_outputs, warp_evaluate_state).
+// A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
+// column passes read), M^-1 (W x W, row-major) and tau - c; at the end, the warp's regions take
+// its last outputs on their way out. Odd strides keep a segment's lanes, and the segments of a
+// warp, on different banks.
 template <int W>
 struct WarpShared {
   static constexpr int kRowStride = 33;
@@ -45,7 +48,11 @@ struct WarpShared {
   static constexpr int kDiff = kMinv + W * W;
   static constexpr int kScalars = kDiff + W + 1;
   static_assert(kScalars % 2 == 1, "an odd number of scalars per state");
-  static_assert(W + 3 * W * W <= kScalars, "a state's region holds its outputs");
+  static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
+  // qdd and -M^-1 d tau/d qd
+  static constexpr int kEarlyOutputs = W + W * W;
+  // scalars of a warp of `segments` segments
+  static RBDGRAD_HD constexpr int warp_scalars(int segments) { return segments * (kScalars + kEarlyOutputs); }
 };
 
 // The warp kernel takes what the block kernel takes, in f64, up to kMaxWarpNv joints.
@@ -194,11 +201,12 @@ RBDGRAD_HD Vec6<S> load(const S* from) {
 
 // Computes `state` of b (warp_kernel_supports(b, m.nv)) on the segment g (W lanes, m.nv <= W) and
 // writes its outputs and status; an inactive segment (past the end of the batch) computes `state`
-// and writes nothing. sh: the state's WarpShared<W>::kScalars of shared memory. kStages as in
-// block_evaluate_state.
+// and writes nothing. sh: the state's region of its warp's shared memory (WarpShared<W>).
+// kStages as in block_evaluate_state. early_outputs: qdd and d qdd/d qd written before d tau/d q
+// is computed (the same for every segment of a warp).
 template <int W, class S, class IO, int kStages, class Lanes>
 RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPointers<IO>& b, std::uint64_t state,
-                                    bool active, const Lanes& g) {
+                                    bool active, bool early_outputs, const Lanes& g) {
   using warp::Column;
   using warp::Inertia;
   const int n = m.nv, i = g.lane;
@@ -400,29 +408,24 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   if (minv_supplied) {
     for (int r = 0; r < W; ++r) col[r] = joint && r < n ? static_cast<S>(b.minv[state * mat + r * vec + i]) : S(0);
   } else {
-    S pivots[W];
     for (int pv = W - 1; pv >= 0; --pv) {
-      pivots[pv] = S(1);
       if (pv >= n) continue;
       S pivot_col[W];
       for (int r = 0; r < W; ++r) pivot_col[r] = g.shfl(col[r], pv);
-      pivots[pv] = pivot_col[pv];
-      const S rp = S(1) / pivot_col[pv];
-      const S a_pj = col[pv];
+      const S d = pivot_col[pv];
+      // the first bad pivot in pivot order names the state's failure
+      if (status == 0 && !is_finite(d)) status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
+      else if (status == 0 && !(d > S(0))) status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
+      const S rp = reciprocal(d);
+      const S a_rp = col[pv] * rp;
       for (int r = 0; r < W; ++r) {
         S x;
         if (r == pv && i == pv) x = rp;
-        else if (r == pv) x = -a_pj * rp;
+        else if (r == pv) x = -a_rp;
         else if (i == pv) x = pivot_col[r] * rp;
-        else x = col[r] - pivot_col[r] * rp * a_pj;
+        else x = col[r] - pivot_col[r] * a_rp;
         col[r] = x;
       }
-    }
-    for (int pv = W - 1; pv >= 0; --pv) {
-      if (pv >= n || status != 0) continue;
-      const S d = pivots[pv];
-      if (!is_finite(d)) status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
-      else if (!(d > S(0))) status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
     }
   }
   for (int r = 0; r < W; ++r) minv_rows[r * W + i] = col[r];
@@ -436,7 +439,40 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
     for (int j = 0; j < n; ++j) qdd += minv_rows[i * W + j] * diff[j];
   }
 
-  g.stamp();  // qdd
+  // The outputs are staged in shared memory, a warp's states one after the other, and written by
+  // the whole warp as whole lines; a value that leaves IO's range or is not finite flags the
+  // state. With early_outputs, qdd and -M^-1 d tau/d qd go out now, from the warp's area for
+  // them, so that their writes overlap d tau/d q (large batches gain); otherwise everything goes
+  // at the end (host memory over PCIe in the middle of the kernel costs a small batch's state
+  // more than it saves).
+  bool bad = false;
+  const auto put = [&](S* to, S x) {
+    const IO y = static_cast<IO>(x);
+    bad = bad || !is_finite(y);
+    *to = static_cast<S>(y);
+  };
+  // -(M^-1 x)(r), x a column of this lane
+  const auto minv_times = [&](const S(&x)[W], int r) {
+    const S* minv_row = minv_rows + r * W;
+    S sum = S(0);
+    for (int k = 0; k < W; ++k)
+      if (k < n) sum += minv_row[k] * x[k];
+    return -sum;
+  };
+  const int n2 = n * n;
+  if (early_outputs) {
+    S* const staged_qdd = g.warp_shared(sh) + Lanes::kSegments * g.shared_stride;
+    S* const staged_dqd = staged_qdd + Lanes::kSegments * n;
+    if (joint) put(staged_qdd + g.segment * n + i, qdd);
+    if (want_dqd && joint)
+      for (int r = 0; r < W; ++r)
+        if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, minv_times(dqd_col, r));
+    g.sync();
+    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
+    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  }
+
+  g.stamp();  // qdd (with early_outputs, the first outputs)
   // d tau/d q: the motion due to qdd, beta, the subtree force with it, then this lane's column
   S dq_col[W];
   for (int r = 0; r < W; ++r) dq_col[r] = S(0);
@@ -469,52 +505,36 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   }
 
   g.stamp();  // d tau/d q
-  // outputs: qdd, -M^-1 dc'/du column by column (both products from one pass over M^-1's rows),
-  // M^-1. Then, every segment done with its shared memory, the warp's regions (consecutive) take
-  // its states' outputs one after the other as IO values, and the whole warp writes each output
-  // out as one block of whole lines (host memory over PCIe for small batches). A value that
-  // leaves IO's range or is not finite flags the state.
+  // the last outputs. Every segment done with its shared memory, the warp's regions (consecutive)
+  // take them.
   S dq_out[W], dqd_out[W];
   for (int r = 0; r < W; ++r) {
-    const S* minv_row = minv_rows + r * W;
-    S s_dq = S(0), s_dqd = S(0);
-    for (int k = 0; k < W; ++k) {
-      if (k >= n) continue;
-      const S m_rk = minv_row[k];
-      s_dq += m_rk * dq_col[k];
-      s_dqd += m_rk * dqd_col[k];
-    }
-    dq_out[r] = -s_dq;
-    dqd_out[r] = -s_dqd;
+    dq_out[r] = minv_times(dq_col, r);
+    dqd_out[r] = early_outputs ? S(0) : minv_times(dqd_col, r);
   }
   g.sync();
-  const int n2 = n * n;
-  S* const staged_qdd = g.warp_shared(sh);
-  S* const staged_dq = staged_qdd + Lanes::kSegments * n;
-  S* const staged_dqd = staged_dq + Lanes::kSegments * n2;
-  S* const staged_minv = staged_dqd + Lanes::kSegments * n2;
+  S* const staged_dq = g.warp_shared(sh);
+  S* const staged_minv = staged_dq + Lanes::kSegments * n2;
+  S* const staged_dqd = staged_minv + Lanes::kSegments * n2;
+  S* const staged_qdd = staged_dqd + Lanes::kSegments * n2;
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  bool bad = false;
-  const auto put = [&](S* to, S x) {
-    const IO y = static_cast<IO>(x);
-    bad = bad || !is_finite(y);
-    *to = static_cast<S>(y);
-  };
   if (joint) {
-    put(staged_qdd + g.segment * n + i, qdd);
+    if (!early_outputs) put(staged_qdd + g.segment * n + i, qdd);
     for (int r = 0; r < W; ++r) {
       if (r >= n) continue;
       const int at = g.segment * n2 + r * n + i;
       if (want_dq) put(staged_dq + at, dq_out[r]);
-      if (want_dqd) put(staged_dqd + at, dqd_out[r]);
       if (want_minv) put(staged_minv + at, col[r]);  // M^-1(r, i), as in minv_rows
+      if (want_dqd && !early_outputs) put(staged_dqd + at, dqd_out[r]);
     }
   }
   g.sync();
-  g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
   if (want_dq) g.write_warp(staged_dq, b.out[output_index(kOutputDqddDq)], n2);
-  if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
   if (want_minv) g.write_warp(staged_minv, b.out[output_index(kOutputMinv)], n2);
+  if (!early_outputs) {
+    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
+    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  }
   const bool any_bad = g.any(bad);
   g.stamp();  // outputs
   if (i == 0 && active) {

@@ -139,6 +139,84 @@ TEST(CudaKernelChoice, GradientRequestsRunTheBlockKernel) {
   EXPECT_FALSE(instance->set_kernel_options(options));
 }
 
+// The warp kernel writes a large batch's first outputs before computing d tau/d q and a small
+// batch's at the end (warp_early_outputs_min_bytes): the same bits either way, for a model on
+// segments of 8 lanes (iiwa14) and one on 16 (hyq), every output, a batch ending inside a warp.
+TEST(CudaKernelChoice, TheWarpKernelsEarlyOutputsAreTheSameBits) {
+  for (const char* robot : {"iiwa14", "hyq"}) {
+    const Model model = testing::load_embedded(robot);
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    const std::uint32_t outputs =
+        RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(-1, 1);
+    auto early = equal_states(model.nv, 1001), late = equal_states(model.nv, 1001);
+    for (std::vector<double>* v : {&early.q, &early.qd, &early.u})
+      for (double& x : *v) x = u(rng);
+    late.q = early.q;
+    late.qd = early.qd;
+    late.u = early.u;
+    for (auto* run : {&early, &late}) {
+      KernelOptions options;
+      options.warp_early_outputs_min_bytes = run == &early ? 0 : ~std::uint64_t{0};
+      ASSERT_TRUE(instance->set_kernel_options(options));
+      rbdgrad_batch b = batch_of(*run, outputs);
+      ASSERT_TRUE(instance->compute(&b)) << robot;
+      ASSERT_TRUE(instance->last_used_warp_kernel()) << robot;
+    }
+    for (const std::uint32_t flag :
+         {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD, RBDGRAD_OUTPUT_MINV})
+      ASSERT_EQ(early.out(flag), late.out(flag)) << robot << ", output " << flag;
+  }
+}
+
+// A small warp-kernel batch carries q, qd and u in the kernel's parameters (up to
+// kWarpInlineInputBytes, without external forces or M^-1): the same bits as from host memory, f64
+// and f32, batches ending inside a warp and filling the parameters; larger ones read host memory.
+TEST(CudaKernelChoice, SmallBatchesCarryTheirInputsInTheKernelsParameters) {
+  const Model model = testing::load_embedded("iiwa14");
+  std::unique_ptr<CudaInstance> instance;
+  if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+  const std::uint32_t outputs = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
+  const std::size_t nv = static_cast<std::size_t>(model.nv);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const auto check = [&](auto scalar, std::size_t n) {
+    using S = decltype(scalar);
+    const bool fits = 3 * n * nv * sizeof(S) <= kWarpInlineInputBytes;
+    auto in_params = equal_states<S>(model.nv, n), from_host = equal_states<S>(model.nv, n);
+    for (std::vector<S>* v : {&in_params.q, &in_params.qd, &in_params.u})
+      for (S& x : *v) x = static_cast<S>(u(rng));
+    from_host.q = in_params.q;
+    from_host.qd = in_params.qd;
+    from_host.u = in_params.u;
+    for (auto* run : {&in_params, &from_host}) {
+      KernelOptions options;
+      options.warp_inline_inputs = run == &in_params;
+      ASSERT_TRUE(instance->set_kernel_options(options));
+      rbdgrad_batch b = batch_of(*run, outputs);
+      ASSERT_TRUE(instance->compute(&b)) << n;
+      EXPECT_TRUE(instance->last_used_warp_kernel()) << n;
+      EXPECT_EQ(instance->last_used_inline_inputs(), run == &in_params && fits) << n << " states";
+    }
+    for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD})
+      ASSERT_EQ(in_params.out(flag), from_host.out(flag)) << n << " states, output " << flag;
+  };
+  // f64: 48 states fill 8064 of the 8192 bytes, 49 do not fit; f32: 97 fit, 98 do not
+  for (const std::size_t n : {1u, 7u, 16u, 33u, 48u, 49u}) check(double{}, n);
+  for (const std::size_t n : {1u, 7u, 32u, 97u, 98u}) check(float{}, n);
+  // with external forces the inputs stay in host memory
+  auto forces = equal_states(model.nv, 7);
+  rbdgrad_batch b = batch_of(forces, outputs);
+  std::vector<double> fext(7 * 6 * nv, 0.5);
+  b.fext = fext.data();
+  ASSERT_TRUE(instance->set_kernel_options(KernelOptions{}));
+  ASSERT_TRUE(instance->compute(&b));
+  EXPECT_TRUE(instance->last_used_warp_kernel());
+  EXPECT_FALSE(instance->last_used_inline_inputs());
+}
+
 // Large f32 batches of small models computed in f32 go to the one-thread kernel (measured faster
 // there); f64 batches, large models and f32 batches computed in f64 stay on the block kernel.
 TEST(CudaKernelChoice, LargeF32BatchesOfSmallModelsRunTheOneThreadKernel) {
@@ -285,10 +363,10 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
   std::unique_ptr<CudaInstance> instance;
   if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
   const std::uint32_t gradient = RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD | RBDGRAD_OUTPUT_QDD;
-  // 16 and 200 states: mapped memory, the smaller one staged unchecked (kMappedPinnedCheckMinBytes),
+  // 8 and 200 states: mapped memory, the smaller one staged unchecked (kMappedPinnedCheckMinBytes),
   // the larger one worked on in place; 1000: mapped in place (every array pinned, within
   // mapped_pinned_max_kib); 3 * 8192 + 7: copies in chunks
-  for (const std::size_t n : {16u, 200u, 1000u, 3 * 8192u + 7}) {
+  for (const std::size_t n : {8u, 200u, 1000u, 3 * 8192u + 7}) {
     auto pageable = equal_states(model.nv, n);
     for (std::size_t e = 0; e < pageable.q.size(); ++e) pageable.q[e] = 0.001 * static_cast<double>(e % 1000);
     const rbdgrad_batch pageable_batch = batch_of(pageable, gradient);
@@ -322,7 +400,7 @@ TEST(CudaPinnedCaller, PinnedArraysSkipTheStaging) {
     for (std::size_t e = 0; e < n * model.nv; ++e) qdd[e] = std::nan("");
     ASSERT_TRUE(instance->compute(&b));
     EXPECT_EQ(instance->last_used_mapped_io(), n <= 1000) << n << " states";
-    EXPECT_EQ(instance->last_pinned_arrays(), n == 16 ? 0 : 6) << n << " states";
+    EXPECT_EQ(instance->last_pinned_arrays(), n == 8 ? 0 : 6) << n << " states";
     for (std::size_t e = 0; e < want_dq.size(); ++e) {
       ASSERT_EQ(dq[e], want_dq[e]) << n << " states, element " << e;
       ASSERT_EQ(dqd[e], want_dqd[e]) << n << " states, element " << e;
