@@ -194,10 +194,12 @@ Kernel warp_outputs(bool early) {
   k.options.warp_early_outputs_min_bytes = early ? 0 : ~std::uint64_t{0};
   return k;
 }
-// the defaults with a small batch's inputs in the warp kernel's parameters or read from host memory
-Kernel warp_inputs(bool in_parameters) {
-  Kernel k{in_parameters ? "params" : "hostmem", {}};
+// the defaults with a small batch's inputs in the warp kernel's parameters, in the smallest block
+// that holds them (min_block 0) or one of at least min_block bytes, or (off) from host memory
+Kernel warp_inputs(bool in_parameters, std::size_t min_block = 0) {
+  Kernel k{in_parameters ? "params" + (min_block ? std::to_string(min_block) : std::string()) : "hostmem", {}};
   k.options.warp_inline_inputs = in_parameters;
+  k.options.warp_inline_min_block = min_block;
   return k;
 }
 // the defaults checking from `bytes` of inputs and outputs whether the caller's arrays are pinned
@@ -262,7 +264,7 @@ void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::ui
   state.counters["kernel_us"] = 1e3 * kernel_ms / timed_calls;
   state.counters["block_kernel"] = instance->last_used_block_kernel() ? 1 : 0;
   state.counters["warp_kernel"] = instance->last_used_warp_kernel() ? 1 : 0;
-  state.counters["inline_inputs"] = instance->last_used_inline_inputs() ? 1 : 0;
+  state.counters["inline_block"] = static_cast<double>(instance->last_inline_block_bytes());
   state.counters["robot_specific"] = instance->last_used_robot_specific_kernel() ? 1 : 0;
   state.counters["f32_in_f64"] = instance->last_computed_f32_in_f64() ? 1 : 0;
   state.counters["chunks"] = static_cast<double>(instance->last_chunks());
@@ -318,10 +320,11 @@ const bool registered = [] {
       add<double>("cuda_warp_outputs", "iiwa14", n, warp_outputs(early));
     }
   // cuda_warp_inputs: small batches' inputs in the kernel's parameters or from host memory
-  for (std::size_t n : {16, 32, 48})
-    for (const bool in_parameters : {true, false}) {
-      add<float>("cuda_warp_inputs", "iiwa14", n, warp_inputs(in_parameters));
-      add<double>("cuda_warp_inputs", "iiwa14", n, warp_inputs(in_parameters));
+  for (std::size_t n : {8, 16, 32, 48})
+    for (const Kernel& kernel : {warp_inputs(true), warp_inputs(true, rbdgrad::cuda::kWarpInlineInputBytes),
+                                 warp_inputs(false)}) {
+      add<float>("cuda_warp_inputs", "iiwa14", n, kernel);
+      add<double>("cuda_warp_inputs", "iiwa14", n, kernel);
     }
   // cuda_pinned_check: small batches checking whether the caller's arrays are pinned (kernel in
   // place) against the default threshold (staged below it)

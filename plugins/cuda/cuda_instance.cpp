@@ -223,11 +223,11 @@ bool CudaInstance::use_warp_kernel(const BatchPointers<S>& batch) const {
 
 template <class C, class S>
 cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                       bool inline_inputs, cudaStream_t stream) const {
+                                       std::size_t inline_block, cudaStream_t stream) const {
   if constexpr (std::is_same_v<C, double>)
     if (warp)
       return launch_warp_fused<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes,
-                                  inline_inputs ? &inline_inputs_ : nullptr, stream);
+                                  inline_block != 0 ? &inline_inputs_ : nullptr, inline_block, stream);
   const SpecializedBlockKernel* specific = specialized<C, S>();
   return specific ? specific->launch<C, S>(view<C>(), batch, shape, stream)
                   : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
@@ -242,11 +242,11 @@ int CudaInstance::block_stages() const {
 
 template <class C, class S>
 cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                             bool inline_inputs, cudaStream_t stream) {
+                                             std::size_t inline_block, cudaStream_t stream) {
   KernelLaunch launch;
   const SpecializedBlockKernel* specific = specialized<C, S>();
   if (std::is_same_v<C, double> && warp)
-    launch = warp_fused_launch<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes, inline_inputs);
+    launch = warp_fused_launch<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes, inline_block);
   else if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
     launch = block_fused_launch<C, S>(view<C>(), batch, shape);
   ModelView<C> model_arg = view<C>();
@@ -257,7 +257,7 @@ cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, cons
     return cudaSuccess;
   }
   cudaGetLastError();  // the graph failed: the usual launch
-  return launch_block<C, S>(batch, shape, warp, inline_inputs, stream);
+  return launch_block<C, S>(batch, shape, warp, inline_block, stream);
 }
 
 Status CudaInstance::specialize(const std::string& cache_dir) {
@@ -398,6 +398,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   const bool inline_inputs = warp && mapped && !pipelined && kernel_.warp_inline_inputs && !inputs[3].from &&
                              !inputs[4].from && inputs[0].from && inputs[1].from && inputs[2].from &&
                              3 * vec <= kWarpInlineInputBytes;
+  const std::size_t inline_block = inline_inputs ? warp_inline_block_bytes(3 * vec, kernel_.warp_inline_min_block) : 0;
   const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv, n);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
@@ -461,10 +462,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
     // one launch and no copies: as a CUDA Graph, which costs the host less (kernel_graphs.hpp)
     const bool graph = block && kernel_.graphs && mapped && !pipelined && !kernel_.time_kernel;
     const cudaError_t launched = !block  ? launch_fused<S>(view<S>(), d_scratch_.as<S>(), slots_, p, stream)
-                                 : graph ? (wide ? launch_block_graph<double>(p, shape, warp, inline_inputs, stream)
-                                                 : launch_block_graph<S>(p, shape, warp, inline_inputs, stream))
-                                 : wide  ? launch_block<double>(p, shape, warp, inline_inputs, stream)
-                                         : launch_block<S>(p, shape, warp, inline_inputs, stream);
+                                 : graph ? (wide ? launch_block_graph<double>(p, shape, warp, inline_block, stream)
+                                                 : launch_block_graph<S>(p, shape, warp, inline_block, stream))
+                                 : wide  ? launch_block<double>(p, shape, warp, inline_block, stream)
+                                         : launch_block<S>(p, shape, warp, inline_block, stream);
     if (Status s = cuda_status(launched, "launching the fused kernel"); !s) return fail(s);
     // each runtime call costs about a microsecond of a small batch's time: only the events used
     if (pipelined || kernel_.time_kernel)
@@ -523,7 +524,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   }
   last_block_ = block;
   last_warp_ = warp;
-  last_inline_ = inline_inputs;
+  last_inline_ = inline_block;
   last_specific_ = block && !warp && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
   last_f32_in_f64_ = wide;
   last_chunks_ = chunks;

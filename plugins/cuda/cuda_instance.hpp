@@ -118,8 +118,10 @@ struct KernelOptions {
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;
   // a warp-kernel batch without copies whose q, qd and u fit kWarpInlineInputBytes (and no
-  // external forces or M^-1) carries them in the kernel's parameters
+  // external forces or M^-1) carries them in the kernel's parameters, in a block of at least
+  // warp_inline_min_block bytes (warp_inline_block_bytes)
   bool warp_inline_inputs = true;
+  std::size_t warp_inline_min_block = 0;
   ChunkRule chunks;
   F32Compute f32_compute = F32Compute::kAuto;
 };
@@ -178,8 +180,10 @@ class CudaInstance {
   bool last_used_mapped_io() const { return last_mapped_; }
   /// Whether the last successful compute() ran the warp kernel (one of the block kernel's requests).
   bool last_used_warp_kernel() const { return last_warp_; }
-  /// Whether it carried its inputs in the warp kernel's parameters (KernelOptions::warp_inline_inputs).
-  bool last_used_inline_inputs() const { return last_inline_; }
+  /// Whether it carried its inputs in the warp kernel's parameters (KernelOptions::warp_inline_inputs),
+  /// and in how many bytes (0: none).
+  bool last_used_inline_inputs() const { return last_inline_ != 0; }
+  std::size_t last_inline_block_bytes() const { return last_inline_; }
   /// Whether the last successful compute() ran the block kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many chunks the last successful compute() went in (chunk_states).
@@ -214,15 +218,15 @@ class CudaInstance {
   template <class C, class S> bool use_block_kernel(const BatchPointers<S>& batch, std::size_t n) const;
   // whether a block-kernel batch computed in C runs the warp kernel instead
   template <class C, class S> bool use_warp_kernel(const BatchPointers<S>& batch) const;
-  // the block kernel, or with `warp` (computing in f64) the warp kernel, its inputs from
-  // inline_inputs_ with `inline_inputs`
+  // the block kernel, or with `warp` (computing in f64) the warp kernel, its inputs from the
+  // first inline_block bytes of inline_inputs_ where inline_block is not 0
   template <class C, class S>
-  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp, bool inline_inputs,
-                           cudaStream_t stream) const;
+  cudaError_t launch_block(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
+                           std::size_t inline_block, cudaStream_t stream) const;
   // the same as a CUDA Graph (graphs_), else as launch_block
   template <class C, class S>
   cudaError_t launch_block_graph(const BatchPointers<S>& batch, const BlockShape& shape, bool warp,
-                                 bool inline_inputs, cudaStream_t stream);
+                                 std::size_t inline_block, cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
 
@@ -251,7 +255,7 @@ class CudaInstance {
   bool last_mapped_ = false;
   bool last_specific_ = false;
   bool last_warp_ = false;
-  bool last_inline_ = false;
+  std::size_t last_inline_ = 0;  // the parameter block's bytes, 0: none
   WarpInlineInputs inline_inputs_{};  // a small batch's inputs for the warp kernel's parameters
   bool last_f32_in_f64_ = false;
   bool last_graph_ = false;

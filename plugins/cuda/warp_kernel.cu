@@ -49,10 +49,10 @@ __global__ void __launch_bounds__(kWarpKernelThreads) warp_fused_kernel(ModelVie
 }
 
 // The same with the inputs in the parameters (read in place: __grid_constant__, no copy)
-template <int W, class IO>
+template <int W, class IO, std::size_t kBytes>
 __global__ void __launch_bounds__(kWarpKernelThreads)
     warp_fused_inline_kernel(ModelView<double> model, BatchPointers<IO> batch,
-                             const __grid_constant__ WarpInlineInputs inputs) {
+                             const __grid_constant__ WarpInlineBlock<kBytes> inputs) {
   const IO* in = reinterpret_cast<const IO*>(inputs.bytes);
   const std::uint64_t values = batch.n * static_cast<std::uint64_t>(model.nv);
   batch.q = in;
@@ -64,8 +64,11 @@ __global__ void __launch_bounds__(kWarpKernelThreads)
 namespace {
 
 template <int W, class IO>
-const void* kernel_for(bool early_outputs, bool inline_inputs) {
-  if (inline_inputs) return reinterpret_cast<const void*>(warp_fused_inline_kernel<W, IO>);
+const void* kernel_for(bool early_outputs, std::size_t inline_block) {
+  if (inline_block == 2048) return reinterpret_cast<const void*>(warp_fused_inline_kernel<W, IO, 2048>);
+  if (inline_block == 4096) return reinterpret_cast<const void*>(warp_fused_inline_kernel<W, IO, 4096>);
+  if (inline_block != 0)
+    return reinterpret_cast<const void*>(warp_fused_inline_kernel<W, IO, kWarpInlineInputBytes>);
   return early_outputs ? reinterpret_cast<const void*>(warp_fused_kernel<W, IO, true>)
                        : reinterpret_cast<const void*>(warp_fused_kernel<W, IO, false>);
 }
@@ -74,7 +77,7 @@ const void* kernel_for(bool early_outputs, bool inline_inputs) {
 
 template <class IO>
 KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointers<IO>& batch,
-                               std::uint64_t early_outputs_min_bytes, bool inline_inputs) {
+                               std::uint64_t early_outputs_min_bytes, std::size_t inline_block) {
   const int W = warp_segment_width(model.nv);
   const std::uint64_t n = batch.n;
   KernelLaunch l;
@@ -85,7 +88,7 @@ KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointe
   for (const std::uint32_t f : {kOutputMinv, kOutputDqddDq, kOutputDqddDqd})
     if (batch.out[output_index(f)]) per_state += nv * nv;
   const bool early = n * per_state * sizeof(IO) >= early_outputs_min_bytes;
-  l.function = W == 8 ? kernel_for<8, IO>(early, inline_inputs) : kernel_for<16, IO>(early, inline_inputs);
+  l.function = W == 8 ? kernel_for<8, IO>(early, inline_block) : kernel_for<16, IO>(early, inline_block);
   const int warp_scalars = W == 8 ? WarpShared<8>::warp_scalars(WarpLanes<8>::kSegments)
                                   : WarpShared<16>::warp_scalars(WarpLanes<16>::kSegments);
   l.grid = dim3(static_cast<unsigned>((n + per_block - 1) / per_block));
@@ -97,8 +100,9 @@ KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointe
 template <class IO>
 cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointers<IO>& batch,
                               std::uint64_t early_outputs_min_bytes, const WarpInlineInputs* inline_inputs,
-                              cudaStream_t stream) {
-  const KernelLaunch l = warp_fused_launch(model, batch, early_outputs_min_bytes, inline_inputs != nullptr);
+                              std::size_t inline_block, cudaStream_t stream) {
+  const KernelLaunch l =
+      warp_fused_launch(model, batch, early_outputs_min_bytes, inline_inputs != nullptr ? inline_block : 0);
   ModelView<double> model_arg = model;
   BatchPointers<IO> batch_arg = batch;
   void* args[] = {&model_arg, &batch_arg, const_cast<WarpInlineInputs*>(inline_inputs)};
@@ -108,12 +112,12 @@ cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointer
 }
 
 template KernelLaunch warp_fused_launch<double>(const ModelView<double>&, const BatchPointers<double>&,
-                                                std::uint64_t, bool);
+                                                std::uint64_t, std::size_t);
 template KernelLaunch warp_fused_launch<float>(const ModelView<double>&, const BatchPointers<float>&, std::uint64_t,
-                                               bool);
+                                               std::size_t);
 template cudaError_t launch_warp_fused<double>(const ModelView<double>&, const BatchPointers<double>&, std::uint64_t,
-                                               const WarpInlineInputs*, cudaStream_t);
+                                               const WarpInlineInputs*, std::size_t, cudaStream_t);
 template cudaError_t launch_warp_fused<float>(const ModelView<double>&, const BatchPointers<float>&, std::uint64_t,
-                                              const WarpInlineInputs*, cudaStream_t);
+                                              const WarpInlineInputs*, std::size_t, cudaStream_t);
 
 }  // namespace rbdgrad::cuda

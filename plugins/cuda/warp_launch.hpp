@@ -25,19 +25,28 @@ inline constexpr std::uint64_t kDefaultWarpEarlyOutputsMinBytes = 160 * 1024;
 
 /// A small batch's inputs carried in the kernel's parameters (q, qd, then u, each n x nv in the
 /// batch's scalars): the launch brings them to the SMs, which then read no host memory over PCIe
-/// before they can start. 8 KiB hold 48 states of iiwa14 in f64, 97 in f32.
+/// before they can start. The block is the smallest of 2, 4 or 8 KiB that holds them (the launch
+/// carries all of it); 8 KiB hold 48 states of iiwa14 in f64, 97 in f32.
 inline constexpr std::size_t kWarpInlineInputBytes = 8192;
-struct WarpInlineInputs {
-  alignas(16) unsigned char bytes[kWarpInlineInputBytes];
+template <std::size_t kBytes>
+struct WarpInlineBlock {
+  alignas(16) unsigned char bytes[kBytes];
 };
+using WarpInlineInputs = WarpInlineBlock<kWarpInlineInputBytes>;
+/// The block for `bytes` of inputs (<= kWarpInlineInputBytes), at least `min_block` bytes.
+constexpr std::size_t warp_inline_block_bytes(std::size_t bytes, std::size_t min_block = 0) {
+  const std::size_t need = bytes > min_block ? bytes : min_block;
+  return need <= 2048 ? 2048 : need <= 4096 ? 4096 : kWarpInlineInputBytes;
+}
 
 /// The launch launch_warp_fused would make (for a CUDA Graph's kernel node, kernel_graphs.hpp);
 /// the kernel's arguments are the model view and the batch pointers, in that order, then with
-/// inline_inputs the WarpInlineInputs (whose inputs replace the batch's q, qd and u).
+/// inline_block (a warp_inline_block_bytes size; 0: none) the first inline_block bytes of a
+/// WarpInlineInputs, whose inputs replace the batch's q, qd and u.
 template <class IO>
 KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointers<IO>& batch,
                                std::uint64_t early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes,
-                               bool inline_inputs = false);
+                               std::size_t inline_block = 0);
 
 #if defined(RBDGRAD_BLOCK_PASS_TIMING)
 /// Measurement builds: the SM clock of state 0's segment at the kernel's entry and at the end of
@@ -46,10 +55,11 @@ cudaError_t read_warp_stage_clocks(long long* out, int count);
 #endif
 
 /// Enqueues the kernel on `stream` for every state of `batch` (warp_kernel_supports(batch, nv)),
-/// its inputs from inline_inputs where given (no external forces or M^-1 then).
+/// its inputs from the first inline_block bytes of inline_inputs where given (no external forces
+/// or M^-1 then).
 template <class IO>
 cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointers<IO>& batch,
                               std::uint64_t early_outputs_min_bytes, const WarpInlineInputs* inline_inputs,
-                              cudaStream_t stream);
+                              std::size_t inline_block, cudaStream_t stream);
 
 }  // namespace rbdgrad::cuda

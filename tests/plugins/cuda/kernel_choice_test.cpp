@@ -12,6 +12,7 @@
 #include <memory>
 #include <random>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "../../support/test_models.hpp"
@@ -172,8 +173,9 @@ TEST(CudaKernelChoice, TheWarpKernelsEarlyOutputsAreTheSameBits) {
 }
 
 // A small warp-kernel batch carries q, qd and u in the kernel's parameters (up to
-// kWarpInlineInputBytes, without external forces or M^-1): the same bits as from host memory, f64
-// and f32, batches ending inside a warp and filling the parameters; larger ones read host memory.
+// kWarpInlineInputBytes, without external forces or M^-1) in the smallest block of 2, 4 or 8 KiB
+// that holds them: the same bits as from host memory and as in the largest block, f64 and f32,
+// batches ending inside a warp and filling a block; larger ones read host memory.
 TEST(CudaKernelChoice, SmallBatchesCarryTheirInputsInTheKernelsParameters) {
   const Model model = testing::load_embedded("iiwa14");
   std::unique_ptr<CudaInstance> instance;
@@ -182,30 +184,41 @@ TEST(CudaKernelChoice, SmallBatchesCarryTheirInputsInTheKernelsParameters) {
   const std::size_t nv = static_cast<std::size_t>(model.nv);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
-  const auto check = [&](auto scalar, std::size_t n) {
+  // block: the parameter block expected (0: host memory)
+  const auto check = [&](auto scalar, std::size_t n, std::size_t block) {
     using S = decltype(scalar);
-    const bool fits = 3 * n * nv * sizeof(S) <= kWarpInlineInputBytes;
-    auto in_params = equal_states<S>(model.nv, n), from_host = equal_states<S>(model.nv, n);
+    auto in_params = equal_states<S>(model.nv, n), largest = equal_states<S>(model.nv, n),
+         from_host = equal_states<S>(model.nv, n);
     for (std::vector<S>* v : {&in_params.q, &in_params.qd, &in_params.u})
       for (S& x : *v) x = static_cast<S>(u(rng));
-    from_host.q = in_params.q;
-    from_host.qd = in_params.qd;
-    from_host.u = in_params.u;
-    for (auto* run : {&in_params, &from_host}) {
+    for (auto* other : {&largest, &from_host}) {
+      other->q = in_params.q;
+      other->qd = in_params.qd;
+      other->u = in_params.u;
+    }
+    for (auto* run : {&in_params, &largest, &from_host}) {
       KernelOptions options;
-      options.warp_inline_inputs = run == &in_params;
+      options.warp_inline_inputs = run != &from_host;
+      if (run == &largest) options.warp_inline_min_block = kWarpInlineInputBytes;
       ASSERT_TRUE(instance->set_kernel_options(options));
       rbdgrad_batch b = batch_of(*run, outputs);
       ASSERT_TRUE(instance->compute(&b)) << n;
       EXPECT_TRUE(instance->last_used_warp_kernel()) << n;
-      EXPECT_EQ(instance->last_used_inline_inputs(), run == &in_params && fits) << n << " states";
+      const std::size_t expected = run == &from_host ? 0 : run == &largest && block != 0 ? kWarpInlineInputBytes : block;
+      EXPECT_EQ(instance->last_inline_block_bytes(), expected) << n << " states, " << sizeof(S) << "-byte scalars";
     }
-    for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD})
+    for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_DQDD_DQ, RBDGRAD_OUTPUT_DQDD_DQD}) {
       ASSERT_EQ(in_params.out(flag), from_host.out(flag)) << n << " states, output " << flag;
+      ASSERT_EQ(largest.out(flag), from_host.out(flag)) << n << " states, output " << flag;
+    }
   };
-  // f64: 48 states fill 8064 of the 8192 bytes, 49 do not fit; f32: 97 fit, 98 do not
-  for (const std::size_t n : {1u, 7u, 16u, 33u, 48u, 49u}) check(double{}, n);
-  for (const std::size_t n : {1u, 7u, 32u, 97u, 98u}) check(float{}, n);
+  // f64, 168 bytes a state: 12 states fill 2016 of 2048 bytes, 24 fill 4032 of 4096, 48 fill 8064
+  // of 8192, 49 do not fit; f32, 84 bytes a state: 97 fit, 98 do not
+  const std::pair<std::size_t, std::size_t> f64_cases[] = {{1, 2048},   {7, 2048},   {12, 2048}, {13, 4096},
+                                                           {24, 4096},  {33, 8192},  {48, 8192}, {49, 0}};
+  for (const auto& [n, block] : f64_cases) check(double{}, n, block);
+  const std::pair<std::size_t, std::size_t> f32_cases[] = {{7, 2048}, {32, 4096}, {97, 8192}, {98, 0}};
+  for (const auto& [n, block] : f32_cases) check(float{}, n, block);
   // with external forces the inputs stay in host memory
   auto forces = equal_states(model.nv, 7);
   rbdgrad_batch b = batch_of(forces, outputs);
