@@ -39,15 +39,22 @@ RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <=
 // early_outputs, warp_evaluate_state).
 // A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
 // column passes read), M^-1 (W x W, row-major) and tau - c; at the end, the warp's regions take
-// its last outputs on their way out. Odd strides keep a segment's lanes, and the segments of a
-// warp, on different banks.
+// its last outputs on their way out. The odd row stride puts a segment's lanes, each reading its
+// own row, on different banks; the regions are padded so that the segments of a warp start
+// 32 / kSegments banks apart: the segments' reads of the same row (the column passes) then hit
+// different banks, and so do the lanes of neighbouring segments reading different rows (without
+// the padding, 48% of the kernel's shared-memory wavefronts were bank conflicts, ncu, run 49).
 template <int W>
 struct WarpShared {
+  static constexpr int kSegments = 32 / W;
   static constexpr int kRowStride = 33;
   static constexpr int kMinv = W * kRowStride;
   static constexpr int kDiff = kMinv + W * W;
-  static constexpr int kScalars = kDiff + W + 1;
-  static_assert(kScalars % 2 == 1, "an odd number of scalars per state");
+  static constexpr int kUsed = kDiff + W;
+  // doubles (two banks each) between segments, modulo the 16 doubles of a row of banks
+  static constexpr int kSegmentShift = 16 / kSegments;
+  static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
+  static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
   static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
   // qdd and -M^-1 d tau/d qd
   static constexpr int kEarlyOutputs = W + W * W;
