@@ -326,8 +326,8 @@ const bool registered = [] {
       add<float>("cuda_warp_inputs", "iiwa14", n, kernel);
       add<double>("cuda_warp_inputs", "iiwa14", n, kernel);
     }
-  // cuda_pinned_check: small batches checking whether the caller's arrays are pinned (kernel in
-  // place) against the default threshold (staged below it)
+  // cuda_pinned_check: small batches checking from 0, 16 KiB (the default) or 64 KiB of inputs
+  // and outputs whether the caller's arrays are pinned (in place), staged below
   for (std::size_t n : {16, 32, 64, 128, 256})
     for (std::size_t bytes : {std::size_t{0}, std::size_t{16} << 10, std::size_t{64} << 10}) {
       add<float>("cuda_pinned_check", "iiwa14", n, pinned_check(bytes));
