@@ -180,9 +180,8 @@ class CudaInstance {
   bool last_used_mapped_io() const { return last_mapped_; }
   /// Whether the last successful compute() ran the warp kernel (one of the block kernel's requests).
   bool last_used_warp_kernel() const { return last_warp_; }
-  /// Whether it carried its inputs in the warp kernel's parameters (KernelOptions::warp_inline_inputs),
-  /// and in how many bytes (0: none).
-  bool last_used_inline_inputs() const { return last_inline_ != 0; }
+  /// The bytes of the parameter block that carried its inputs in the warp kernel's parameters
+  /// (KernelOptions::warp_inline_inputs); 0: none.
   std::size_t last_inline_block_bytes() const { return last_inline_; }
   /// Whether the last successful compute() ran the block kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }

@@ -227,7 +227,7 @@ TEST(CudaKernelChoice, SmallBatchesCarryTheirInputsInTheKernelsParameters) {
   ASSERT_TRUE(instance->set_kernel_options(KernelOptions{}));
   ASSERT_TRUE(instance->compute(&b));
   EXPECT_TRUE(instance->last_used_warp_kernel());
-  EXPECT_FALSE(instance->last_used_inline_inputs());
+  EXPECT_EQ(instance->last_inline_block_bytes(), 0u);
 }
 
 // Large f32 batches of small models computed in f32 go to the one-thread kernel (measured faster
