@@ -16,7 +16,7 @@ cudaError_t read_warp_stage_clocks(long long* out, int count) {
 // The states of `batch` on the block's warps; kEarlyOutputs: warp_evaluate_state's early_outputs.
 template <int W, class IO, bool kEarlyOutputs>
 __device__ __forceinline__ void warp_fused_block(const ModelView<double>& model, const BatchPointers<IO>& batch) {
-  extern __shared__ __align__(16) unsigned char shared[];
+  extern __shared__ __align__(32) unsigned char shared[];  // 32: the tensor cores' loads (WarpLanes::product)
   constexpr int kPerWarp = WarpLanes<W>::kSegments;
   const int tid = static_cast<int>(threadIdx.x);
   WarpLanes<W> g;

@@ -11,9 +11,10 @@
 //   a symmetric 3x3 (10 values, not 36), and the B operator of the core's derivatives as
 //   B x = dI x + x x* h, where dI = v x* I - I v x is the inertia's rate (again a spatial inertia,
 //   of zero mass) and h = I v the momentum: sums over a subtree stay in that form (26 values);
-// - the columns of M, d tau/d qd, d tau/d q and of the final -M^-1 dc'/du one per lane;
+// - the columns of M, d tau/d qd and d tau/d q one per lane;
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
 //   a state fails at the same joint for the same reason;
+// - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
 // - the outputs staged in shared memory, a warp's states one after the other, and written by the
 //   whole warp as whole lines.
 // It computes in f64 (S = double: the GPUs whose f64 is fast, where f32 batches run in f64 as
@@ -38,11 +39,12 @@ RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <=
 // kEarlyOutputs per segment for the outputs that go out before d tau/d q is computed (with
 // early_outputs, warp_evaluate_state).
 // A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
-// column passes read), M^-1 (W x W, row-major) and tau - c; at the end, the warp's regions take
-// its last outputs on their way out. The odd row stride puts a segment's lanes, each reading its
-// own row, on different banks; the regions are padded so that the segments of a warp start
-// 32 / kSegments banks apart: the segments' reads of the same row (the column passes) then hit
-// different banks, and so do the lanes of neighbouring segments reading different rows (without
+// column passes read), M^-1 (W x W, row-major), tau - c, and the right factor of a product with
+// M^-1 (the W x W blocks 32-byte aligned, as the tensor cores' loads need); at the end, the warp's
+// regions take its last outputs on their way out. The odd row stride puts a segment's lanes, each
+// reading its own row, on different banks; the regions are padded so that the segments of a warp
+// start 32 / kSegments banks apart: the segments' reads of the same row (the column passes) then
+// hit different banks, and so do the lanes of neighbouring segments reading different rows (without
 // the padding, 48% of the kernel's shared-memory wavefronts were bank conflicts, ncu, run 49).
 template <int W>
 struct WarpShared {
@@ -50,11 +52,14 @@ struct WarpShared {
   static constexpr int kRowStride = 33;
   static constexpr int kMinv = W * kRowStride;
   static constexpr int kDiff = kMinv + W * W;
-  static constexpr int kUsed = kDiff + W;
+  // a product with M^-1: its right factor (W x W, row-major), replaced by the result
+  static constexpr int kProduct = kDiff + W;
+  static constexpr int kUsed = kProduct + W * W;
   // doubles (two banks each) between segments, modulo the 16 doubles of a row of banks
   static constexpr int kSegmentShift = 16 / kSegments;
   static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
   static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
+  static_assert(kMinv % 4 == 0 && kProduct % 4 == 0 && kScalars % 4 == 0, "W x W blocks start 32 bytes apart");
   static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
   // qdd and -M^-1 d tau/d qd
   static constexpr int kEarlyOutputs = W + W * W;
@@ -458,22 +463,27 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
     bad = bad || !is_finite(y);
     *to = static_cast<S>(y);
   };
-  // -(M^-1 x)(r), x a column of this lane
-  const auto minv_times = [&](const S(&x)[W], int r) {
-    const S* minv_row = minv_rows + r * W;
-    S sum = S(0);
-    for (int k = 0; k < W; ++k)
-      if (k < n) sum += minv_row[k] * x[k];
-    return -sum;
+  // -M^-1 x, x this lane's column (zero past the joints, as M^-1 is), for every segment's state at
+  // once: the columns into the product area, the product by the lanes (the tensor cores on the
+  // GPU), this lane's column of it back
+  S* const product = sh + WarpShared<W>::kProduct;
+  const auto minv_product = [&](const S(&x)[W], S(&out)[W]) {
+    for (int r = 0; r < W; ++r) product[r * W + i] = x[r];
+    g.product(minv_rows, product);
+    for (int r = 0; r < W; ++r) out[r] = -product[r * W + i];
   };
   const int n2 = n * n;
   if (early_outputs) {
     S* const staged_qdd = g.warp_shared(sh) + Lanes::kSegments * g.shared_stride;
     S* const staged_dqd = staged_qdd + Lanes::kSegments * n;
     if (joint) put(staged_qdd + g.segment * n + i, qdd);
-    if (want_dqd && joint)
-      for (int r = 0; r < W; ++r)
-        if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, minv_times(dqd_col, r));
+    if (want_dqd) {
+      S dqd_out[W];
+      minv_product(dqd_col, dqd_out);
+      if (joint)
+        for (int r = 0; r < W; ++r)
+          if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, dqd_out[r]);
+    }
     g.sync();
     g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
     if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
@@ -514,11 +524,9 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   g.stamp();  // d tau/d q
   // the last outputs. Every segment done with its shared memory, the warp's regions (consecutive)
   // take them.
-  S dq_out[W], dqd_out[W];
-  for (int r = 0; r < W; ++r) {
-    dq_out[r] = minv_times(dq_col, r);
-    dqd_out[r] = early_outputs ? S(0) : minv_times(dqd_col, r);
-  }
+  S dq_out[W] = {}, dqd_out[W] = {};
+  if (want_dq) minv_product(dq_col, dq_out);
+  if (want_dqd && !early_outputs) minv_product(dqd_col, dqd_out);
   g.sync();
   S* const staged_dq = g.warp_shared(sh);
   S* const staged_minv = staged_dq + Lanes::kSegments * n2;

@@ -5,6 +5,10 @@
 // tests/plugins/cuda/warp_state_test.cpp), which gives these calls the same meaning.
 #pragma once
 
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+#include <mma.h>  // FP64 tensor cores from compute capability 8.0
+#endif
+
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {
@@ -65,6 +69,54 @@ struct WarpLanes {
     (void)staged;
     (void)out;
     (void)count;
+#endif
+  }
+  // B = A B for the state of every segment of the warp, A and B W x W row-major in shared memory
+  // at the same offsets in each segment's region (shared_stride scalars apart, both 32-byte
+  // aligned). Every lane of the warp calls it, after writing its part of B, and reads the product
+  // after it returns. On the GPU the warp's FP64 tensor-core steps (8 x 8 x 4) take each
+  // segment's product in turn, where a lane's column took W dependent multiply-adds and W
+  // shared-memory reads for each of its W entries (docs/benchmarks/cuda.md, runs 57 and 58).
+  template <class S>
+  RBDGRAD_HD void product(const S* A, S* B) const {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+    static_assert(sizeof(S) == sizeof(double), "the warp kernel computes in f64");
+    using namespace nvcuda;
+    constexpr int kTiles = W / 8;
+    // every segment's loads and steps first, then every store: the segments' products overlap
+    wmma::fragment<wmma::accumulator, 8, 8, 4, double> c[kSegments][kTiles][kTiles];
+    __syncwarp();
+    for (int s = 0; s < kSegments; ++s) {
+      const int shift = (s - segment) * shared_stride;
+      for (int ti = 0; ti < kTiles; ++ti)
+        for (int tj = 0; tj < kTiles; ++tj) {
+          wmma::fill_fragment(c[s][ti][tj], 0.0);
+          for (int kc = 0; kc < W / 4; ++kc) {
+            wmma::fragment<wmma::matrix_a, 8, 8, 4, double, wmma::row_major> a;
+            wmma::fragment<wmma::matrix_b, 8, 8, 4, double, wmma::row_major> b;
+            wmma::load_matrix_sync(a, A + shift + 8 * ti * W + 4 * kc, W);
+            wmma::load_matrix_sync(b, B + shift + 4 * kc * W + 8 * tj, W);
+            wmma::mma_sync(c[s][ti][tj], a, b, c[s][ti][tj]);
+          }
+        }
+    }
+    __syncwarp();  // every lane's part of B read before the products replace it
+    for (int s = 0; s < kSegments; ++s) {
+      const int shift = (s - segment) * shared_stride;
+      for (int ti = 0; ti < kTiles; ++ti)
+        for (int tj = 0; tj < kTiles; ++tj)
+          wmma::store_matrix_sync(B + shift + 8 * ti * W + 8 * tj, c[s][ti][tj], W, wmma::mem_row_major);
+    }
+    __syncwarp();
+#else
+    // a column per lane: GPUs without FP64 tensor cores, and the host (the tests' lanes are host
+    // threads, HostLanes). A lane reads and replaces only its own column of B.
+    S column[W];
+    for (int r = 0; r < W; ++r) {
+      column[r] = S(0);
+      for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
+    }
+    for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
 #endif
   }
   // the end of a stage (measurement builds only)

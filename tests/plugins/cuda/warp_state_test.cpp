@@ -57,6 +57,19 @@ struct HostLanes {
     return y;
   }
   void sync() const { warp->barrier.arrive_and_wait(); }
+  // B = A B (W x W, row-major) for this segment's state: each lane a column, between barriers
+  template <class S>
+  void product(const S* A, S* B) const {
+    sync();
+    S column[W];
+    for (int r = 0; r < W; ++r) {
+      column[r] = S(0);
+      for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
+    }
+    sync();
+    for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
+    sync();
+  }
   void stamp() const {}
   bool any(bool p) const {
     warp->slots[slot(lane)] = p ? 1.0 : 0.0;
