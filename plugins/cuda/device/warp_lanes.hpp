@@ -13,6 +13,18 @@
 
 namespace rbdgrad::cuda {
 
+// B = A B (W x W, row-major), lane `lane`'s column: its own column of B read and replaced, A only
+// read. WarpLanes::product where there are no FP64 tensor cores, and the tests' host lanes.
+template <int W, class S>
+RBDGRAD_HD void lane_column_product(const S* A, S* B, int lane) {
+  S column[W];
+  for (int r = 0; r < W; ++r) {
+    column[r] = S(0);
+    for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
+  }
+  for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
+}
+
 template <int W>
 struct WarpLanes {
   static_assert(W == 8 || W == 16, "a segment is 8 or 16 lanes");
@@ -109,14 +121,7 @@ struct WarpLanes {
     }
     __syncwarp();
 #else
-    // a column per lane: GPUs without FP64 tensor cores, and the host (the tests' lanes are host
-    // threads, HostLanes). A lane reads and replaces only its own column of B.
-    S column[W];
-    for (int r = 0; r < W; ++r) {
-      column[r] = S(0);
-      for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
-    }
-    for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
+    lane_column_product<W>(A, B, lane);  // a column per lane
 #endif
   }
   // the end of a stage (measurement builds only)

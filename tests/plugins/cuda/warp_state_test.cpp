@@ -61,13 +61,7 @@ struct HostLanes {
   template <class S>
   void product(const S* A, S* B) const {
     sync();
-    S column[W];
-    for (int r = 0; r < W; ++r) {
-      column[r] = S(0);
-      for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
-    }
-    sync();
-    for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
+    cuda::lane_column_product<W>(A, B, lane);
     sync();
   }
   void stamp() const {}
