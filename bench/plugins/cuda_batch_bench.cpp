@@ -108,8 +108,8 @@ struct Backend {
         unavailable = s.to_string();
         return nullptr;
       }
-      // as the plugin does by default: the block kernel compiled for the robot (the "generic"
-      // entries turn it off)
+      // as the plugin does by default: the block and warp kernels compiled for the robot (the
+      // "generic" entries turn them off)
       (void)slot->specialize("");
       if (copy == 0) std::fprintf(stderr, "%s: %s\n", robot.c_str(), slot->kernel_description().c_str());
     }
@@ -142,7 +142,8 @@ Kernel timed_kernel() {
   k.options.time_kernel = true;
   return k;
 }
-// the same with the block kernel compiled for any robot (the plugin's option specialize: false)
+// the same with the block and warp kernels compiled for any robot (the plugin's option
+// specialize: false)
 Kernel generic_kernel() {
   Kernel k{"generic", {}};
   k.options.robot_specific = false;
@@ -182,10 +183,11 @@ Kernel mapped_io() {
   return k;
 }
 // the defaults with batches beyond one chunk in `chunks` chunks of any size (1: no pipeline)
-Kernel pipeline(std::size_t chunks) {
-  Kernel k{std::to_string(chunks) + "chunks", {}};
+Kernel pipeline(std::size_t chunks, bool robot_specific = true) {
+  Kernel k{std::to_string(chunks) + "chunks" + (robot_specific ? "" : "-generic"), {}};
   k.options.chunks = {1, chunks};
   k.options.mapped_pinned_max_kib = 0;  // copies at every size measured
+  k.options.robot_specific = robot_specific;
   return k;
 }
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
@@ -288,7 +290,7 @@ void add(const std::string& family, const std::string& robot, std::size_t n, con
 
 // cuda_e2e: the anchors' sizes with the plugin's defaults (the kernel chosen by size, copies
 // skipped for small batches), the caller's arrays pinned (the anchors' pinned columns) and
-// pageable; then the defaults with every kernel timed by events, the generic block kernel instead
+// pageable; then the defaults with every kernel timed by events, the generic kernels instead
 // of the robot's, the block kernel with copies at every size, and the one-thread kernel;
 // cuda_shape: the block kernel's shapes at a few sizes, to choose the default by measurement.
 const bool registered = [] {
@@ -306,10 +308,11 @@ const bool registered = [] {
           if (kernel.name != "f32-arith") add<double>("cuda_e2e", robot, n, kernel, pinned_memory);
         }
       }
-  // cuda_warp: the warp kernel (the defaults) against the block kernel, side by side per size
+  // cuda_warp: the warp kernel (the defaults) against the block kernel and against the warp
+  // kernel compiled for any robot, side by side per size
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-      for (const Kernel& kernel : {default_kernel(), no_warp()}) {
+      for (const Kernel& kernel : {default_kernel(), no_warp(), generic_kernel()}) {
         add<float>("cuda_warp", robot, n, kernel);
         add<double>("cuda_warp", robot, n, kernel);
       }
@@ -350,12 +353,16 @@ const bool registered = [] {
     for (std::size_t n : {32768, 65536})
       for (const Kernel& kernel : {block_kernel(true), thread_kernel()}) add<float>("cuda_choice", robot, n, kernel);
   // cuda_pipeline: how many chunks a batch that copies goes in (against the default rule,
-  // chunk_states)
+  // chunk_states); in one chunk also with the kernels compiled for any robot (the kernel alone
+  // at N = 65536, issue 4's floor goal)
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (std::size_t chunks : {1, 2, 4, 8})
       for (std::size_t n : {1024, 4096, 16384, 65536}) {
         add<float>("cuda_pipeline", robot, n, pipeline(chunks));
         add<double>("cuda_pipeline", robot, n, pipeline(chunks));
+        if (chunks != 1) continue;
+        add<float>("cuda_pipeline", robot, n, pipeline(chunks, false));
+        add<double>("cuda_pipeline", robot, n, pipeline(chunks, false));
       }
   // cuda_mapped: mapped memory at sizes where the defaults copy
   for (const char* robot : {"iiwa14", "talos_reduced"})

@@ -187,7 +187,8 @@ Status CudaInstance::set_kernel_options(const KernelOptions& options) {
 
 void CudaInstance::describe() {
   const bool warp = kernel_.warp_kernel && model_.nv <= kMaxWarpNv;
-  kernel_description_ = block_description_ + (warp ? "; gradient batches computed in f64 on the warp kernel" : "");
+  kernel_description_ =
+      block_description_ + (warp ? "; gradient batches computed in f64 on the warp kernel" + warp_build_ : "");
 }
 
 bool CudaInstance::f32_in_f64() const {
@@ -215,6 +216,10 @@ const SpecializedBlockKernel* CudaInstance::specialized() const {
   else return specialized_f64_.get();
 }
 
+const WarpKernelTable* CudaInstance::warp_table() const {
+  return kernel_.robot_specific && specialized_warp_ ? &specialized_warp_->table() : nullptr;
+}
+
 template <class C, class S>
 bool CudaInstance::use_warp_kernel(const BatchPointers<S>& batch) const {
   if constexpr (std::is_same_v<C, double>) return kernel_.warp_kernel && warp_kernel_supports(batch, model_.nv);
@@ -227,7 +232,7 @@ cudaError_t CudaInstance::launch_block(const BatchPointers<S>& batch, const Bloc
   if constexpr (std::is_same_v<C, double>)
     if (warp)
       return launch_warp_fused<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes,
-                                  inline_block != 0 ? &inline_inputs_ : nullptr, inline_block, stream);
+                                  inline_block != 0 ? &inline_inputs_ : nullptr, inline_block, stream, warp_table());
   const SpecializedBlockKernel* specific = specialized<C, S>();
   return specific ? specific->launch<C, S>(view<C>(), batch, shape, stream)
                   : launch_block_fused<C, S>(view<C>(), batch, shape, stream);
@@ -246,7 +251,8 @@ cudaError_t CudaInstance::launch_block_graph(const BatchPointers<S>& batch, cons
   KernelLaunch launch;
   const SpecializedBlockKernel* specific = specialized<C, S>();
   if (std::is_same_v<C, double> && warp)
-    launch = warp_fused_launch<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes, inline_block);
+    launch = warp_fused_launch<S>(view<double>(), batch, kernel_.warp_early_outputs_min_bytes, inline_block,
+                                  warp_table());
   else if (!specific || !specific->launch_config<C, S>(view<C>(), batch, shape, launch))
     launch = block_fused_launch<C, S>(view<C>(), batch, shape);
   ModelView<C> model_arg = view<C>();
@@ -285,6 +291,22 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     std::snprintf(seconds, sizeof seconds, "%.1f s", k->seconds());
     parts += std::string(kernel_origin_name(k->origin())) + ", " + seconds;
     if (!k->warning().empty()) parts += ", " + k->warning();
+  }
+  // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64
+  specialized_warp_.reset();
+  warp_build_.clear();
+  if (model_.nv <= kMaxWarpNv) {
+    const Status s = SpecializedWarpKernel::load(model_, f32_in_f64(), device_, cache_dir, specialized_warp_);
+    if (!s && first) first = s;
+    if (!s) {
+      warp_build_ = " (generic, " + s.message().substr(0, s.message().find('\n')) + ")";
+    } else {
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%.1f s", specialized_warp_->seconds());
+      warp_build_ = std::string(" (compiled for this robot: ") + kernel_origin_name(specialized_warp_->origin()) +
+                    ", " + seconds + (specialized_warp_->warning().empty() ? "" : ", " + specialized_warp_->warning()) +
+                    ")";
+    }
   }
   block_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "") +
@@ -525,7 +547,10 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   last_block_ = block;
   last_warp_ = warp;
   last_inline_ = inline_block;
-  last_specific_ = block && !warp && (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
+  const WarpKernelTable* robot_warp = warp_table();
+  const bool robot_warp_ran =
+      robot_warp != nullptr && (std::is_same_v<S, float> ? robot_warp->f32[0] : robot_warp->f64[0]) != nullptr;
+  last_specific_ = block && (warp ? robot_warp_ran : (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr);
   last_f32_in_f64_ = wide;
   last_chunks_ = chunks;
   last_mapped_ = mapped;

@@ -24,6 +24,7 @@
 #include "device_memory.hpp"
 #include "kernel_graphs.hpp"
 #include "specialized_kernel.hpp"
+#include "specialized_warp_kernel.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/plugin_api.h"
 #include "rbdgrad/status.hpp"
@@ -162,14 +163,17 @@ class CudaInstance {
   /// The plan's block_stages, or kPerBatch without a plan.
   int block_stages() const;
 
-  /// Compiles the block kernel for this robot in both precisions (SpecializedBlockKernel, NVRTC),
-  /// from `cache_dir` when it holds them ("" = no disk cache). Until then, and for a precision
-  /// where it fails, the generic kernel runs; kernel_description() says which runs and why.
+  /// Compiles the block kernel for this robot in both precisions (SpecializedBlockKernel, NVRTC)
+  /// and, for models of up to kMaxWarpNv joints, the warp kernel (SpecializedWarpKernel), from
+  /// `cache_dir` when it holds them ("" = no disk cache). Until then, and for a kernel or
+  /// precision where it fails, the generic kernel runs; kernel_description() says which runs and
+  /// why.
   /// \return the first failure (the instance stays usable).
   Status specialize(const std::string& cache_dir);
   /// "kernel compiled for this robot (f64: compiled in 2.1 s; f32: disk cache)", or "generic
   /// kernel" and why, then "; gradient batches computed in f64 on the warp kernel" where they
-  /// are: for logs (describe_instance).
+  /// are, with how that was built ("(compiled for this robot: disk cache, 0.1 s)"): for logs
+  /// (describe_instance).
   const std::string& kernel_description() const { return kernel_description_; }
 
   /// Kernel choice and shape for the next compute() calls. Errors: check_kernel_options.
@@ -183,7 +187,7 @@ class CudaInstance {
   /// The bytes of the parameter block that carried its inputs in the warp kernel's parameters
   /// (KernelOptions::warp_inline_inputs); 0: none.
   std::size_t last_inline_block_bytes() const { return last_inline_; }
-  /// Whether the last successful compute() ran the block kernel compiled for this robot.
+  /// Whether the last successful compute() ran the block or warp kernel compiled for this robot.
   bool last_used_robot_specific_kernel() const { return last_specific_; }
   /// How many chunks the last successful compute() went in (chunk_states).
   std::size_t last_chunks() const { return last_chunks_; }
@@ -228,6 +232,8 @@ class CudaInstance {
                                  std::size_t inline_block, cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
+  // the warp kernel's entry points compiled for the robot, or null (the generic ones)
+  const WarpKernelTable* warp_table() const;
 
   Model model_;
   std::optional<plugin::BatchPlan> plan_;  // a scene's (set_plan)
@@ -262,8 +268,10 @@ class CudaInstance {
   std::size_t last_chunks_ = 0;
   bool fast_f64_ = false;  // the GPU's f64 rate is at least half its f32 rate (F32Compute)
   std::unique_ptr<SpecializedBlockKernel> specialized_f64_, specialized_f32_, specialized_f64_for_f32_;
-  // the block kernel's build (specialize()), then the whole description with the warp kernel
+  std::unique_ptr<SpecializedWarpKernel> specialized_warp_;
+  // the block kernel's build and the warp kernel's (specialize()), then the whole description
   std::string block_description_ = "generic kernel";
+  std::string warp_build_;
   std::string kernel_description_ = "generic kernel";
   int last_pinned_ = 0;
   Allocation d_ints_{MemoryKind::kDevice};      // (ModelLayout::ints) topology, shared by both precisions

@@ -80,8 +80,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // (0: never). chunk_min_states, max_chunks: batches larger than one chunk go through the
     // pipeline in up to max_chunks chunks of at least chunk_min_states states (0: by the model's
     // size). f32_compute: auto (default), f32 or f64: what f32 gradient batches compute in
-    // (cuda::F32Compute). specialize: compile the block kernel for the robot at load (NVRTC; default
-    // true); kernel_cache_dir: where compiled kernels are kept across restarts ("" = not kept;
+    // (cuda::F32Compute). specialize: compile the block and warp kernels for the robot at load
+    // (NVRTC; default true); kernel_cache_dir: where compiled kernels are kept across restarts ("" = not kept;
     // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels). graphs: a batch of one
     // kernel launch without copies goes as a CUDA Graph (default true). warp_kernel: gradient
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).

@@ -15,8 +15,9 @@ namespace rbdgrad::cuda {
 
 namespace {
 
-// A file: "rbdgrad-cubin 1\n", the kernel's symbol, "\n", then the cubin to the end.
-constexpr const char* kFileMagic = "rbdgrad-cubin 1\n";
+// A file: "rbdgrad-cubin 2\n", the number of kernels, then each kernel's symbol, each followed by
+// "\n", then the cubin to the end. (Version 1's files, one symbol, are not read: compiled again.)
+constexpr const char* kFileMagic = "rbdgrad-cubin 2\n";
 
 struct MemoryCache {
   std::mutex mutex;
@@ -55,10 +56,23 @@ bool read_file(const std::filesystem::path& path, NvrtcOutput& out) {
   const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string magic = kFileMagic;
   if (all.compare(0, magic.size(), magic) != 0) return false;
-  const std::size_t end = all.find('\n', magic.size());
-  if (end == std::string::npos || end == magic.size() || end + 1 >= all.size()) return false;
-  out.kernel_symbol = all.substr(magic.size(), end - magic.size());
-  out.cubin = all.substr(end + 1);
+  std::size_t at = magic.size();
+  // the next line, without its "\n"; false at the end of the file or on an empty line
+  const auto line = [&](std::string& text) {
+    const std::size_t end = all.find('\n', at);
+    if (end == std::string::npos || end == at) return false;
+    text = all.substr(at, end - at);
+    at = end + 1;
+    return true;
+  };
+  std::string count_text;
+  if (!line(count_text) || count_text.size() > 3 || count_text.find_first_not_of("0123456789") != std::string::npos)
+    return false;
+  out.kernel_symbols.assign(static_cast<std::size_t>(std::stoi(count_text)), "");
+  for (std::string& symbol : out.kernel_symbols)
+    if (!line(symbol)) return false;
+  if (out.kernel_symbols.empty() || at >= all.size()) return false;
+  out.cubin = all.substr(at);
   out.log.clear();
   return true;
 }
@@ -72,7 +86,8 @@ Status write_file(const std::filesystem::path& path, const NvrtcOutput& kernel) 
   const std::filesystem::path tmp = path.string() + ".tmp" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << kFileMagic << kernel.kernel_symbol << '\n';
+    out << kFileMagic << kernel.kernel_symbols.size() << '\n';
+    for (const std::string& symbol : kernel.kernel_symbols) out << symbol << '\n';
     out.write(kernel.cubin.data(), static_cast<std::streamsize>(kernel.cubin.size()));
     if (!out.flush()) {
       std::filesystem::remove(tmp, ec);
@@ -110,7 +125,8 @@ std::string kernel_cache_key(const NvrtcProgram& program, const std::string& nvr
   Fnv f;
   f.field(nvrtc_version);
   f.field(program.source);
-  f.field(program.name_expression);
+  f.field(std::to_string(program.name_expressions.size()));
+  for (const std::string& e : program.name_expressions) f.field(e);
   for (const std::string& o : program.options) f.field(o);
   for (const EmbeddedHeader& h : program.headers) {
     f.field(h.name);

@@ -1,6 +1,7 @@
-// The robot-specific block kernel's source, generated when a model is loaded: the block kernel's
-// device code (device/block_kernel_entry.hpp, embedded in the plugin) instantiated with the
-// model's sizes as compile-time constants (FixedSizeModelView), for NVRTC.
+// The robot-specific kernels' sources, generated when a model is loaded: the block kernel's and
+// the warp kernel's device code (device/block_kernel_entry.hpp, device/warp_kernel_entry.hpp,
+// embedded in the plugin) instantiated with the model's sizes as compile-time constants
+// (FixedSizeModelView), for NVRTC.
 #pragma once
 
 #include <string>
@@ -26,5 +27,10 @@ std::string block_stages_text(int stages);
 /// compute capability 9.0); `stages` a scene's fixed block_stages, or kPerBatch.
 NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch,
                                   int stages = block_stages::kPerBatch);
+
+/// The warp kernel's entry points for `model` (nv <= kMaxWarpNv) with its joint count and depth
+/// fixed, for sm_<arch>: name_expressions[e] is WarpEntry e (warp_launch.hpp) for f64 batches, then with
+/// f32_batches name_expressions[kWarpEntries + e] the same for f32 batches (computed in f64).
+NvrtcProgram warp_kernel_program(const Model& model, bool f32_batches, int arch);
 
 }  // namespace rbdgrad::cuda

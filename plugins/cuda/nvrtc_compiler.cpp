@@ -109,8 +109,9 @@ Status nvrtc_compile(const NvrtcProgram& program, NvrtcOutput& out) {
     nvrtcProgram& p;
     ~Destroy() { lib.destroy(&p); }
   } destroy{lib, p};
-  if (nvrtcResult r = lib.add_name_expression(p, program.name_expression.c_str()); r != NVRTC_SUCCESS)
-    return nvrtc_error(lib, r, "nvrtcAddNameExpression");
+  for (const std::string& e : program.name_expressions)
+    if (nvrtcResult r = lib.add_name_expression(p, e.c_str()); r != NVRTC_SUCCESS)
+      return nvrtc_error(lib, r, "nvrtcAddNameExpression");
   const nvrtcResult compiled = lib.compile(p, static_cast<int>(options.size()), options.data());
   std::size_t log_size = 0;
   if (lib.log_size(p, &log_size) == NVRTC_SUCCESS && log_size > 1) {
@@ -125,10 +126,13 @@ Status nvrtc_compile(const NvrtcProgram& program, NvrtcOutput& out) {
   if (size == 0) return internal("NVRTC made no cubin for " + program.name + " (a virtual architecture was asked for)");
   out.cubin.resize(size);
   if (nvrtcResult r = lib.cubin(p, out.cubin.data()); r != NVRTC_SUCCESS) return nvrtc_error(lib, r, "nvrtcGetCUBIN");
-  const char* lowered = nullptr;
-  if (nvrtcResult r = lib.lowered_name(p, program.name_expression.c_str(), &lowered); r != NVRTC_SUCCESS)
-    return nvrtc_error(lib, r, "nvrtcGetLoweredName");
-  out.kernel_symbol = lowered;
+  out.kernel_symbols.clear();
+  for (const std::string& e : program.name_expressions) {
+    const char* lowered = nullptr;
+    if (nvrtcResult r = lib.lowered_name(p, e.c_str(), &lowered); r != NVRTC_SUCCESS)
+      return nvrtc_error(lib, r, "nvrtcGetLoweredName");
+    out.kernel_symbols.push_back(lowered);
+  }
   return Status::ok();
 }
 

@@ -16,12 +16,12 @@ struct NvrtcProgram {
   std::string name;                     // its name in messages
   std::vector<EmbeddedHeader> headers;  // what it may include, by name
   std::vector<std::string> options;     // e.g. "--gpu-architecture=sm_90"
-  std::string name_expression;          // the kernel (a template instance) whose symbol is wanted
+  std::vector<std::string> name_expressions;  // the kernels (template instances) whose symbols are wanted
 };
 
 struct NvrtcOutput {
   std::string cubin;         // the device code, loadable with cudaLibraryLoadData
-  std::string kernel_symbol;  // the mangled name of name_expression
+  std::vector<std::string> kernel_symbols;  // the mangled names of name_expressions, in their order
   std::string log;           // NVRTC's messages (warnings on success)
 };
 

@@ -1,5 +1,5 @@
-// The block kernel compiled for one robot: generated (kernel_source.hpp) and compiled with NVRTC
-// (kernel_cache.hpp) when an instance is created, loaded onto its device, and launched as the
+// The block kernel compiled for one robot: generated (kernel_source.hpp), compiled with NVRTC and
+// loaded onto its device (compiled_library.hpp) when an instance is created, and launched as the
 // generic one is (block_launch.hpp). When NVRTC is missing or fails, the instance keeps the generic
 // kernel, compiled into the plugin for any robot.
 #pragma once
@@ -10,7 +10,7 @@
 #include <string>
 
 #include "block_launch.hpp"
-#include "kernel_cache.hpp"
+#include "compiled_library.hpp"
 #include "kernel_source.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/status.hpp"
@@ -25,9 +25,6 @@ class SpecializedBlockKernel {
   /// or loading failed: the message says which).
   static Status load(const Model& model, KernelScalars scalars, int stages, int device, std::size_t max_shared_bytes,
                      const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
-  ~SpecializedBlockKernel();
-  SpecializedBlockKernel(const SpecializedBlockKernel&) = delete;
-  SpecializedBlockKernel& operator=(const SpecializedBlockKernel&) = delete;
 
   /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
   /// cudaErrorInvalidValue).
@@ -41,21 +38,17 @@ class SpecializedBlockKernel {
   bool launch_config(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      KernelLaunch& out) const;
 
-  KernelOrigin origin() const { return origin_; }
+  KernelOrigin origin() const { return library_->origin(); }
   /// Seconds spent compiling (0 from a cache) and loading.
-  double seconds() const { return seconds_; }
+  double seconds() const { return library_->seconds(); }
   /// A failed write to the disk cache, else "".
-  const std::string& warning() const { return warning_; }
+  const std::string& warning() const { return library_->warning(); }
 
  private:
   SpecializedBlockKernel() = default;
 
-  cudaLibrary_t library_ = nullptr;
-  cudaKernel_t kernel_ = nullptr;
+  std::unique_ptr<CompiledLibrary> library_;
   KernelScalars scalars_ = KernelScalars::kF64;
-  KernelOrigin origin_ = KernelOrigin::kCompiled;
-  double seconds_ = 0;
-  std::string warning_;
 };
 
 }  // namespace rbdgrad::cuda

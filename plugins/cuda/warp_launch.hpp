@@ -7,13 +7,9 @@
 #include <cuda_runtime_api.h>
 
 #include "block_launch.hpp"
-#include "device/warp_fused_state.hpp"
+#include "device/warp_kernel_entry.hpp"
 
 namespace rbdgrad::cuda {
-
-/// Threads per block: 64 (two warps) holds 8 or 4 states in at most 34 KiB of shared memory,
-/// within the default limit, and lets a small batch spread over the most SMs.
-inline constexpr int kWarpKernelThreads = 64;
 
 /// Batches whose outputs take at least this many bytes write their first ones (qdd, d qdd/d qd)
 /// before computing d tau/d q, so that the writes overlap it (KernelOptions::
@@ -23,30 +19,33 @@ inline constexpr int kWarpKernelThreads = 64;
 /// states went both ways in runs 46 and 47).
 inline constexpr std::uint64_t kDefaultWarpEarlyOutputsMinBytes = 160 * 1024;
 
-/// A small batch's inputs carried in the kernel's parameters (q, qd, then u, each n x nv in the
-/// batch's scalars): the launch brings them to the SMs, which then read no host memory over PCIe
-/// before they can start. The block is the smallest of 2, 4 or 8 KiB that holds them (the launch
-/// carries all of it); 8 KiB hold 48 states of iiwa14 in f64, 97 in f32.
-inline constexpr std::size_t kWarpInlineInputBytes = 8192;
-template <std::size_t kBytes>
-struct WarpInlineBlock {
-  alignas(16) unsigned char bytes[kBytes];
-};
-using WarpInlineInputs = WarpInlineBlock<kWarpInlineInputBytes>;
 /// The block for `bytes` of inputs (<= kWarpInlineInputBytes), at least `min_block` bytes.
 constexpr std::size_t warp_inline_block_bytes(std::size_t bytes, std::size_t min_block = 0) {
   const std::size_t need = bytes > min_block ? bytes : min_block;
   return need <= 2048 ? 2048 : need <= 4096 ? 4096 : kWarpInlineInputBytes;
 }
 
+/// The warp kernel's entry points (device/warp_kernel_entry.hpp) for a batch: the first outputs
+/// written late or early, or the inputs in the parameters in a block of 2, 4 or 8 KiB.
+enum class WarpEntry { kLate, kEarly, kInline2048, kInline4096, kInline8192 };
+inline constexpr int kWarpEntries = 5;
+
+/// One robot's entry points (SpecializedWarpKernel): by the batch's scalars and WarpEntry, each
+/// null where the generic kernel's is taken.
+struct WarpKernelTable {
+  const void* f64[kWarpEntries] = {};
+  const void* f32[kWarpEntries] = {};
+};
+
 /// The launch launch_warp_fused would make (for a CUDA Graph's kernel node, kernel_graphs.hpp);
 /// the kernel's arguments are the model view and the batch pointers, in that order, then with
 /// inline_block (a warp_inline_block_bytes size; 0: none) the first inline_block bytes of a
 /// WarpInlineInputs, whose inputs replace the batch's q, qd and u.
+/// `robot`: the entry points compiled for the model, where not null.
 template <class IO>
 KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointers<IO>& batch,
                                std::uint64_t early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes,
-                               std::size_t inline_block = 0);
+                               std::size_t inline_block = 0, const WarpKernelTable* robot = nullptr);
 
 #if defined(RBDGRAD_BLOCK_PASS_TIMING)
 /// Measurement builds: the SM clock of state 0's segment at the kernel's entry and at the end of
@@ -56,10 +55,10 @@ cudaError_t read_warp_stage_clocks(long long* out, int count);
 
 /// Enqueues the kernel on `stream` for every state of `batch` (warp_kernel_supports(batch, nv)),
 /// its inputs from the first inline_block bytes of inline_inputs where given (no external forces
-/// or M^-1 then).
+/// or M^-1 then); `robot` as in warp_fused_launch.
 template <class IO>
 cudaError_t launch_warp_fused(const ModelView<double>& model, const BatchPointers<IO>& batch,
                               std::uint64_t early_outputs_min_bytes, const WarpInlineInputs* inline_inputs,
-                              std::size_t inline_block, cudaStream_t stream);
+                              std::size_t inline_block, cudaStream_t stream, const WarpKernelTable* robot = nullptr);
 
 }  // namespace rbdgrad::cuda

@@ -61,6 +61,15 @@ template <class S, int NV, int LEVELS>
 struct FixedNv<FixedSizeModelView<S, NV, LEVELS>> {
   static constexpr int value = NV;
 };
+// The tree depth a model type fixes at compile time, 0 for run-time sizes.
+template <class Model>
+struct FixedLevels {
+  static constexpr int value = 0;
+};
+template <class S, int NV, int LEVELS>
+struct FixedLevels<FixedSizeModelView<S, NV, LEVELS>> {
+  static constexpr int value = LEVELS;
+};
 
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {

@@ -40,7 +40,7 @@ RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <=
 // early_outputs, warp_evaluate_state).
 // A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
 // column passes read), M^-1 (W x W, row-major), tau - c, and the right factor of a product with
-// M^-1 (the W x W blocks 32-byte aligned, as the tensor cores' loads need); at the end, the warp's
+// M^-1 (the W x W blocks 16-byte aligned, for the products' paired stores); at the end, the warp's
 // regions take its last outputs on their way out. The odd row stride puts a segment's lanes, each
 // reading its own row, on different banks; the regions are padded so that the segments of a warp
 // start 32 / kSegments banks apart: the segments' reads of the same row (the column passes) then
@@ -59,7 +59,7 @@ struct WarpShared {
   static constexpr int kSegmentShift = 16 / kSegments;
   static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
   static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
-  static_assert(kMinv % 4 == 0 && kProduct % 4 == 0 && kScalars % 4 == 0, "W x W blocks start 32 bytes apart");
+  static_assert(kMinv % 2 == 0 && kProduct % 2 == 0 && kScalars % 2 == 0, "W x W blocks start 16 bytes apart");
   static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
   // qdd and -M^-1 d tau/d qd
   static constexpr int kEarlyOutputs = W + W * W;
@@ -216,12 +216,18 @@ RBDGRAD_HD Vec6<S> load(const S* from) {
 // and writes nothing. sh: the state's region of its warp's shared memory (WarpShared<W>).
 // kStages as in block_evaluate_state. early_outputs: qdd and d qdd/d qd written before d tau/d q
 // is computed (the same for every segment of a warp).
-template <int W, class S, class IO, int kStages, class Lanes>
-RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPointers<IO>& b, std::uint64_t state,
+// Model: ModelView<S>, or a FixedSizeModelView of it (the kernel compiled for one robot: the
+// joint count and the tree's depth are constants, so that the loops over joints and the pointer
+// jumping's rounds have fixed trip counts and the output offsets are constant multiples).
+template <int W, class S, class IO, int kStages, class Lanes, class Model>
+RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<IO>& b, std::uint64_t state,
                                     bool active, bool early_outputs, const Lanes& g) {
   using warp::Column;
   using warp::Inertia;
-  const int n = m.nv, i = g.lane;
+  constexpr int kFixedNv = FixedNv<Model>::value;
+  static_assert(kFixedNv <= W, "a segment holds every joint");
+  const int n = kFixedNv > 0 ? kFixedNv : m.nv, i = g.lane;
+  const int levels = FixedLevels<Model>::value > 0 ? FixedLevels<Model>::value : m.levels;
   const bool joint = i < n;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   constexpr bool kFixed = kStages != block_stages::kPerBatch;
@@ -242,7 +248,7 @@ RBDGRAD_HD void warp_evaluate_state(const ModelView<S>& m, S* sh, const BatchPoi
   }
   const int parent = joint ? m.parent[i] : -1;
   const int end = joint ? m.subtree_end[i] : i + 1;
-  const warp::Jumps jumps = warp::jumps(parent, m.levels, g);
+  const warp::Jumps jumps = warp::jumps(parent, levels, g);
   // ancestors-or-self of this joint (bit r: joint r), for the column passes
   unsigned ancestors = 0;
   for (int r = 0; r < W; ++r) {

@@ -5,10 +5,6 @@
 // tests/plugins/cuda/warp_state_test.cpp), which gives these calls the same meaning.
 #pragma once
 
-#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
-#include <mma.h>  // FP64 tensor cores from compute capability 8.0
-#endif
-
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {
@@ -84,40 +80,47 @@ struct WarpLanes {
 #endif
   }
   // B = A B for the state of every segment of the warp, A and B W x W row-major in shared memory
-  // at the same offsets in each segment's region (shared_stride scalars apart, both 32-byte
+  // at the same offsets in each segment's region (shared_stride scalars apart, both 16-byte
   // aligned). Every lane of the warp calls it, after writing its part of B, and reads the product
-  // after it returns. On the GPU the warp's FP64 tensor-core steps (8 x 8 x 4) take each
-  // segment's product in turn, where a lane's column took W dependent multiply-adds and W
-  // shared-memory reads for each of its W entries (docs/benchmarks/cuda.md, runs 57 and 58).
+  // after it returns. On the GPU the warp's FP64 tensor-core steps (mma m8n8k4, written in PTX:
+  // NVRTC has no mma.h) take each segment's product in turn, where a lane's column took W
+  // dependent multiply-adds and W shared-memory reads for each of its W entries
+  // (docs/benchmarks/cuda.md, runs 57 and 58).
   template <class S>
   RBDGRAD_HD void product(const S* A, S* B) const {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
     static_assert(sizeof(S) == sizeof(double), "the warp kernel computes in f64");
-    using namespace nvcuda;
     constexpr int kTiles = W / 8;
-    // every segment's loads and steps first, then every store: the segments' products overlap
-    wmma::fragment<wmma::accumulator, 8, 8, 4, double> c[kSegments][kTiles][kTiles];
+    // the step's fragments (PTX ISA, mma.m8n8k4 .f64): lane t holds A(t / 4, t % 4),
+    // B(t % 4, t / 4), and C(t / 4, 2 (t % 4)) with its right neighbour
+    const int t = segment * W + lane, row = t >> 2, quad = t & 3;
+    double c[kSegments][kTiles][kTiles][2];
     __syncwarp();
+    // every segment's loads and steps first, then every store: the segments' products overlap
     for (int s = 0; s < kSegments; ++s) {
       const int shift = (s - segment) * shared_stride;
       for (int ti = 0; ti < kTiles; ++ti)
         for (int tj = 0; tj < kTiles; ++tj) {
-          wmma::fill_fragment(c[s][ti][tj], 0.0);
+          double d0 = 0.0, d1 = 0.0;
           for (int kc = 0; kc < W / 4; ++kc) {
-            wmma::fragment<wmma::matrix_a, 8, 8, 4, double, wmma::row_major> a;
-            wmma::fragment<wmma::matrix_b, 8, 8, 4, double, wmma::row_major> b;
-            wmma::load_matrix_sync(a, A + shift + 8 * ti * W + 4 * kc, W);
-            wmma::load_matrix_sync(b, B + shift + 4 * kc * W + 8 * tj, W);
-            wmma::mma_sync(c[s][ti][tj], a, b, c[s][ti][tj]);
+            const double a = A[shift + (8 * ti + row) * W + 4 * kc + quad];
+            const double b = B[shift + (4 * kc + quad) * W + 8 * tj + row];
+            asm("mma.sync.aligned.m8n8k4.row.col.f64.f64.f64.f64 {%0, %1}, {%2}, {%3}, {%0, %1};"
+                : "+d"(d0), "+d"(d1)
+                : "d"(a), "d"(b));
           }
+          c[s][ti][tj][0] = d0;
+          c[s][ti][tj][1] = d1;
         }
     }
     __syncwarp();  // every lane's part of B read before the products replace it
     for (int s = 0; s < kSegments; ++s) {
       const int shift = (s - segment) * shared_stride;
       for (int ti = 0; ti < kTiles; ++ti)
-        for (int tj = 0; tj < kTiles; ++tj)
-          wmma::store_matrix_sync(B + shift + 8 * ti * W + 8 * tj, c[s][ti][tj], W, wmma::mem_row_major);
+        for (int tj = 0; tj < kTiles; ++tj) {
+          double2* to = reinterpret_cast<double2*>(B + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
+          *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
+        }
     }
     __syncwarp();
 #else

@@ -1,4 +1,4 @@
-// Tests for the robot-specific block kernel's generation and compilation (kernel_source.cpp,
+// Tests for the robot-specific block and warp kernels' generation and compilation (kernel_source.cpp,
 // nvrtc_compiler.cpp, kernel_cache.cpp). NVRTC needs no GPU: every shipped robot's kernel is
 // compiled here for the H200's architecture (sm_90), in CI too. Where NVRTC is not installed the
 // tests skip and say so. Running the compiled kernels needs a GPU (cuda_plugin_test.cpp).
@@ -15,6 +15,7 @@
 #include "../../support/test_models.hpp"
 #include "kernel_cache.hpp"
 #include "kernel_source.hpp"
+#include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 
 namespace rbdgrad::testing {
@@ -50,28 +51,29 @@ cuda::NvrtcProgram tiny_program(const std::string& tag) {
   p.name = "tiny_" + tag + ".cu";
   p.source = "// " + tag + "\ntemplate <class S> __global__ void scale(S* x, S a) { x[threadIdx.x] *= a; }\n";
   p.options = {"-std=c++17", "--gpu-architecture=sm_90"};
-  p.name_expression = "scale<float>";
+  p.name_expressions = {"scale<float>"};
   return p;
 }
 
 TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   const Model model = load_embedded("iiwa14");
   const cuda::NvrtcProgram f64 = cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90);
-  EXPECT_EQ(f64.name_expression,
-            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>>");
+  EXPECT_THAT(f64.name_expressions,
+              ::testing::ElementsAre(
+                  "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>>"));
   EXPECT_THAT(f64.source, HasSubstr("#include \"block_kernel_entry.hpp\""));
   EXPECT_THAT(f64.options, ::testing::Contains("--gpu-architecture=sm_90"));
   const cuda::NvrtcProgram f32 = cuda::block_kernel_program(load_embedded("talos_reduced"), cuda::KernelScalars::kF32, 90);
-  EXPECT_EQ(f32.name_expression,
+  EXPECT_EQ(f32.name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<float, rbdgrad::cuda::FixedSizeModelView<float, 32, " +
                 std::to_string(load_embedded("talos_reduced").max_depth()) + ">>");
   // an f32 batch computed in f64: the batch's scalars as the third argument
-  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90).name_expression,
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float>");
   // a scene's stages (block_stages) follow the batch's scalars
-  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kDq).name_expression,
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kDq).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, double, 1>");
-  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6).name_expression,
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6>");
   EXPECT_THAT(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).source,
               HasSubstr("stages fixed: d/dqd, M^-1 supplied"));
@@ -82,6 +84,46 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   Model odd = model;
   odd.name = "evil\n#error injected";
   EXPECT_THAT(cuda::block_kernel_program(odd, cuda::KernelScalars::kF64, 90).source, ::testing::Not(HasSubstr("\n#error")));
+}
+
+// The warp kernel's program: the robot's sizes fixed, one name per entry point (WarpEntry's
+// order), f32 batches' after f64's.
+TEST(KernelSource, WarpProgramNamesEveryEntryPoint) {
+  const Model model = load_embedded("iiwa14");
+  const cuda::NvrtcProgram f64 = cuda::warp_kernel_program(model, false, 90);
+  const std::string head = "<8, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, ";
+  EXPECT_THAT(f64.name_expressions,
+              ::testing::ElementsAre("rbdgrad::cuda::warp_fused_kernel" + head + "double, false>",
+                                     "rbdgrad::cuda::warp_fused_kernel" + head + "double, true>",
+                                     "rbdgrad::cuda::warp_fused_inline_kernel" + head + "double, 2048>",
+                                     "rbdgrad::cuda::warp_fused_inline_kernel" + head + "double, 4096>",
+                                     "rbdgrad::cuda::warp_fused_inline_kernel" + head + "double, 8192>"));
+  EXPECT_THAT(f64.source, HasSubstr("#include \"warp_kernel_entry.hpp\""));
+  const cuda::NvrtcProgram both = cuda::warp_kernel_program(model, true, 90);
+  ASSERT_EQ(both.name_expressions.size(), 2u * cuda::kWarpEntries);
+  EXPECT_EQ(both.name_expressions[cuda::kWarpEntries + 1], "rbdgrad::cuda::warp_fused_kernel" + head + "float, true>");
+  const Model hyq = load_embedded("hyq");
+  EXPECT_THAT(cuda::warp_kernel_program(hyq, false, 90).name_expressions[0],
+              HasSubstr("<16, rbdgrad::cuda::FixedSizeModelView<double, 12, " + std::to_string(hyq.max_depth()) + ">"));
+  EXPECT_NE(cuda::kernel_cache_key(f64, "13.0"), cuda::kernel_cache_key(both, "13.0"));
+}
+
+// Every robot the warp kernel takes compiles its entry points, f64 and f32 batches, with NVRTC
+// for sm_90.
+TEST(KernelSource, EveryWarpRobotCompiles) {
+  SKIP_WITHOUT_NVRTC();
+  for (std::string_view name : embedded_robot_names()) {
+    const Model model = load_embedded(std::string(name));
+    if (model.nv > cuda::kMaxWarpNv) continue;
+    const auto start = std::chrono::steady_clock::now();
+    cuda::NvrtcOutput out;
+    const Status s = cuda::nvrtc_compile(cuda::warp_kernel_program(model, true, 90), out);
+    ASSERT_TRUE(s.is_ok()) << name << ": " << s.message();
+    ASSERT_EQ(out.kernel_symbols.size(), 2u * cuda::kWarpEntries) << name;
+    for (const std::string& symbol : out.kernel_symbols) EXPECT_THAT(symbol, HasSubstr("warp_fused")) << name;
+    std::printf("%s warp kernel: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(), out.cubin.size(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
 }
 
 // Every shipped robot's kernel, both precisions and f32 batches in f64, compiles with NVRTC for
@@ -97,7 +139,8 @@ TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
       const Status s = cuda::nvrtc_compile(cuda::block_kernel_program(model, scalars, 90), out);
       ASSERT_TRUE(s.is_ok()) << name << " " << cuda::kernel_scalars_name(scalars) << ": " << s.message();
       EXPECT_GT(out.cubin.size(), 1000u) << name;
-      EXPECT_THAT(out.kernel_symbol, HasSubstr("block_fused_kernel")) << name;
+      ASSERT_EQ(out.kernel_symbols.size(), 1u) << name;
+      EXPECT_THAT(out.kernel_symbols[0], HasSubstr("block_fused_kernel")) << name;
       std::printf("%s %s: cubin %zu bytes, compiled in %.1f s\n", std::string(name).c_str(),
                   cuda::kernel_scalars_name(scalars),
                   out.cubin.size(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
@@ -165,7 +208,7 @@ TEST(KernelCache, CompilesOnceThenServesFromMemoryAndDisk) {
   ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, second, origin, warning).is_ok());
   EXPECT_EQ(origin, cuda::KernelOrigin::kMemoryCache);
   EXPECT_EQ(second.cubin, first.cubin);
-  EXPECT_EQ(second.kernel_symbol, first.kernel_symbol);
+  EXPECT_EQ(second.kernel_symbols, first.kernel_symbols);
   ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), true, refreshed, origin, warning).is_ok());
   EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
   // the file: the kernel's symbol and the cubin, under the program's key
@@ -175,7 +218,8 @@ TEST(KernelCache, CompilesOnceThenServesFromMemoryAndDisk) {
   ASSERT_TRUE(std::filesystem::exists(file)) << file;
   std::ifstream in(file, std::ios::binary);
   const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(all, "rbdgrad-cubin 1\n" + first.kernel_symbol + "\n" + first.cubin);
+  ASSERT_EQ(first.kernel_symbols.size(), 1u);
+  EXPECT_EQ(all, "rbdgrad-cubin 2\n1\n" + first.kernel_symbols[0] + "\n" + first.cubin);
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path), std::filesystem::directory_iterator()), 1)
       << "a temporary file was left behind";
 }
@@ -188,13 +232,13 @@ TEST(KernelCache, ReadsWhatADaemonBeforeItWrote) {
   std::string version;
   ASSERT_TRUE(cuda::nvrtc_version(version).is_ok());
   const std::filesystem::path file = dir.path / (cuda::kernel_cache_key(p, version) + ".cubin");
-  std::ofstream(file, std::ios::binary) << "rbdgrad-cubin 1\nsymbol\nnot a real cubin";
+  std::ofstream(file, std::ios::binary) << "rbdgrad-cubin 2\n2\nsymbol\nother\nnot a real cubin";
   cuda::NvrtcOutput out;
   cuda::KernelOrigin origin{};
   std::string warning;
   ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, out, origin, warning).is_ok());
   EXPECT_EQ(origin, cuda::KernelOrigin::kDiskCache);
-  EXPECT_EQ(out.kernel_symbol, "symbol");
+  EXPECT_THAT(out.kernel_symbols, ::testing::ElementsAre("symbol", "other"));
   EXPECT_EQ(out.cubin, "not a real cubin");
 }
 
@@ -202,15 +246,20 @@ TEST(KernelCache, IgnoresFilesItDidNotWriteAndSaysWhenItCannotWrite) {
   SKIP_WITHOUT_NVRTC();
   TempDir dir;
   std::filesystem::create_directories(dir.path);
-  const cuda::NvrtcProgram p = tiny_program("foreign" + std::to_string(::getpid()));
   std::string version;
   ASSERT_TRUE(cuda::nvrtc_version(version).is_ok());
-  std::ofstream(dir.path / (cuda::kernel_cache_key(p, version) + ".cubin"), std::ios::binary) << "something else";
   cuda::NvrtcOutput out;
   cuda::KernelOrigin origin{};
   std::string warning;
-  ASSERT_TRUE(cuda::compile_with_cache(p, dir.path.string(), false, out, origin, warning).is_ok());
-  EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled);
+  // another program's file, version 1's (one symbol, no count), and one with fewer symbols than
+  // it says: each is compiled again
+  int attempt = 0;
+  for (const char* text : {"something else", "rbdgrad-cubin 1\nsymbol\ncubin", "rbdgrad-cubin 2\n3\na\nb\n"}) {
+    const cuda::NvrtcProgram foreign = tiny_program("foreign" + std::to_string(::getpid()) + "_" + std::to_string(attempt++));
+    std::ofstream(dir.path / (cuda::kernel_cache_key(foreign, version) + ".cubin"), std::ios::binary) << text;
+    ASSERT_TRUE(cuda::compile_with_cache(foreign, dir.path.string(), false, out, origin, warning).is_ok()) << text;
+    EXPECT_EQ(origin, cuda::KernelOrigin::kCompiled) << text;
+  }
   // a cache directory that cannot be made: the kernel still compiles, with a warning
   const std::filesystem::path blocked = dir.path / "a_file";
   std::ofstream(blocked) << "x";

@@ -1,5 +1,5 @@
-// The block kernel compiled for the robot at load (CudaInstance::specialize, NVRTC) against the
-// generic one compiled into the plugin: the same numbers to rounding for every shipped robot, both
+// The block and warp kernels compiled for the robot at load (CudaInstance::specialize, NVRTC)
+// against the generic ones compiled into the plugin: the same numbers to rounding for every shipped robot, both
 // precisions, both input kinds, odd and even batch sizes, every output written. Needs a GPU and
 // NVRTC; skips with the reason without either. (The plugin tests, cuda_plugin_test.cpp, check the
 // plugin's default, this kernel, against the Pinocchio reference.)
@@ -37,16 +37,20 @@ testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
   return a;
 }
 
+// warp: the warp kernel's two builds (models of up to kMaxWarpNv joints), else the block kernel's
 template <class S>
 void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
-                     F32Compute f32_compute = F32Compute::kF32) {
+                     F32Compute f32_compute = F32Compute::kF32, bool warp = false) {
   const std::uint32_t precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
   // f64: the two builds differ only in constant folding and unrolling, which may contract other
   // multiply-adds; f32 the same, at its own rounding
   const double tolerance = std::is_same_v<S, float> ? 2e-4 : 1e-11;
   for (const std::uint32_t input : {RBDGRAD_INPUT_TAU, RBDGRAD_INPUT_QDD}) {
-    for (const std::size_t n : {1u, 7u, 33u, 1000u}) {
-      const std::string where = robot +
+    // with the warp kernel: inputs in the parameters (1 to 33), outputs late (1000) and early
+    const std::vector<std::size_t> sizes = warp ? std::vector<std::size_t>{1, 7, 33, 1000, 65536}
+                                                : std::vector<std::size_t>{1, 7, 33, 1000};
+    for (const std::size_t n : sizes) {
+      const std::string where = std::string(warp ? "warp kernel, " : "") + robot +
                                 (std::is_same_v<S, float>
                                      ? (f32_compute == F32Compute::kF64 ? " f32 computed in f64" : " f32")
                                      : " f64") +
@@ -56,18 +60,20 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
       auto specific = generic;
       KernelOptions options;
       options.f32_compute = f32_compute;
-      options.warp_kernel = false;  // the block kernel's two builds
+      options.warp_kernel = warp;
       options.robot_specific = false;
       ASSERT_TRUE(instance.set_kernel_options(options));
       rbdgrad_batch b = generic.batch(precision, input, kGradient, false, false);
       ASSERT_TRUE(instance.compute(&b)) << where;
       ASSERT_TRUE(instance.last_used_block_kernel()) << where;
+      ASSERT_EQ(instance.last_used_warp_kernel(), warp) << where;
       ASSERT_FALSE(instance.last_used_robot_specific_kernel()) << where;
       options.robot_specific = true;
       ASSERT_TRUE(instance.set_kernel_options(options));
       b = specific.batch(precision, input, kGradient, false, false);
       ASSERT_TRUE(instance.compute(&b)) << where;
       ASSERT_TRUE(instance.last_used_robot_specific_kernel()) << where;
+      ASSERT_EQ(instance.last_used_warp_kernel(), warp) << where;
       for (std::size_t k = 0; k < n; ++k) ASSERT_EQ(specific.state_status[k], 0) << where << ", state " << k;
       for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_MINV, RBDGRAD_OUTPUT_DQDD_DQ,
                                        RBDGRAD_OUTPUT_DQDD_DQD}) {
@@ -101,6 +107,25 @@ TEST(CudaRobotSpecificKernel, MatchesTheGenericKernelOnEveryRobot) {
     compare_kernels<float>(*instance, std::string(name), model.nv);
     // the kernel for f32 batches computed in f64 is compiled where auto uses it
     if (instance->f32_in_f64()) compare_kernels<float>(*instance, std::string(name), model.nv, F32Compute::kF64);
+  }
+}
+
+// The warp kernel compiled for the robot (its joint count and depth fixed) against the generic
+// one, for every robot it takes: f64 batches, and f32 batches where they compute in f64.
+TEST(CudaRobotSpecificKernel, WarpKernelMatchesTheGenericOneOnEveryRobot) {
+  for (std::string_view name : embedded_robot_names()) {
+    const Model model = testing::load_embedded(std::string(name));
+    if (model.nv > kMaxWarpNv) continue;
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    if (Status s = instance->specialize(""); !s) {
+      if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
+      FAIL() << name << ": " << s.message();
+    }
+    EXPECT_THAT(instance->kernel_description(), HasSubstr("on the warp kernel (compiled for this robot: ")) << name;
+    compare_kernels<double>(*instance, std::string(name), model.nv, F32Compute::kF32, true);
+    if (instance->f32_in_f64())
+      compare_kernels<float>(*instance, std::string(name), model.nv, F32Compute::kF64, true);
   }
 }
 

@@ -87,12 +87,13 @@ struct HostLanes {
 
 // The batch's states on warps of `Segments` segments of W host threads each, one warp after the
 // other, as the kernel's entry lays them out (warp_kernel.cu): the last warp's segments past the
-// end of the batch compute its last state and write nothing.
-template <int W, int Segments, class IO>
+// end of the batch compute its last state and write nothing. View: the generic ModelView, or a
+// FixedSizeModelView of the model's sizes (the kernel compiled for the robot).
+template <int W, int Segments, class IO, class View = cuda::ModelView<double>>
 std::vector<std::uint32_t> run_warps_on_host(const Model& model, CudaBatch<IO>& a, const OutputCase& c,
                                              bool tau_input, bool early_outputs) {
   const cuda::FlatModel<double> flat(model);
-  const cuda::ModelView<double> m(flat.host_view());
+  const View m(flat.host_view());
   constexpr int kStride = cuda::WarpShared<W>::kScalars;
   std::vector<double> shared(static_cast<std::size_t>(cuda::WarpShared<W>::warp_scalars(Segments)), poison<double>());
   cuda::BatchPointers<IO> b = a.pointers(c, tau_input);
@@ -183,6 +184,33 @@ TEST(WarpStateOnHost, WholeWarpsWriteEachStatesOutputs) {
           std::string(robot) + ", " + std::to_string(n) + " states" + (early ? ", early outputs" : "");
       for (std::size_t k = 0; k < n; ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
       const Comparison cmp = compare_with_core(model, a, c, true);
+      ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
+      EXPECT_TRUE(cmp.within_bounds<double>()) << where << ": " << cmp.summary();
+    }
+  }
+}
+
+// The code the kernel compiled for the robot runs (the joint count and depth as constants: fixed
+// loop trip counts) on iiwa14, a chain, and hyq, four legs of three: the same results.
+TEST(WarpStateOnHost, RobotSizedCodeMatchesCore) {
+  const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq");
+  ASSERT_EQ(iiwa.nv, 7);
+  ASSERT_EQ(iiwa.max_depth(), 7);
+  ASSERT_EQ(hyq.nv, 12);
+  ASSERT_EQ(hyq.max_depth(), 3);
+  for (const bool early : {false, true}) {
+    for (const Model* model : {&iiwa, &hyq}) {
+      const std::vector<StateInputs> states = random_inputs(*model, 5, 31);
+      const OutputCase& c = kBlockCases[1];
+      CudaBatch<double> a(states, model->nv, true);
+      a.poison();
+      const std::vector<std::uint32_t> status =
+          model == &iiwa
+              ? run_warps_on_host<8, 4, double, cuda::FixedSizeModelView<double, 7, 7>>(*model, a, c, true, early)
+              : run_warps_on_host<16, 2, double, cuda::FixedSizeModelView<double, 12, 3>>(*model, a, c, true, early);
+      const std::string where = model->name + (early ? ", early outputs" : "");
+      for (std::size_t k = 0; k < states.size(); ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
+      const Comparison cmp = compare_with_core(*model, a, c, true);
       ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
       EXPECT_TRUE(cmp.within_bounds<double>()) << where << ": " << cmp.summary();
     }
