@@ -41,15 +41,16 @@ RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <=
 // A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
 // column passes read), M^-1 (W x W, row-major), tau - c, and the right factor of a product with
 // M^-1 (the W x W blocks 16-byte aligned, for the products' paired stores); at the end, the warp's
-// regions take its last outputs on their way out. The odd row stride puts a segment's lanes, each
-// reading its own row, on different banks; the regions are padded so that the segments of a warp
-// start 32 / kSegments banks apart: the segments' reads of the same row (the column passes) then
-// hit different banks, and so do the lanes of neighbouring segments reading different rows (without
-// the padding, 48% of the kernel's shared-memory wavefronts were bank conflicts, ncu, run 49).
+// regions take its last outputs on their way out. The rows are read and written 16 bytes at a
+// time (warp::load_pair): the row stride, 34 doubles, keeps them 16-byte aligned and puts the 8
+// lanes of a quarter warp, each reading 16 bytes of its own row, on the 32 banks once; the regions
+// are padded so that the segments of a warp start 32 / kSegments banks apart: the segments' reads
+// of the same row (the column passes) then hit different banks (without the padding, 48% of the
+// kernel's shared-memory wavefronts were bank conflicts, ncu, run 49).
 template <int W>
 struct WarpShared {
   static constexpr int kSegments = 32 / W;
-  static constexpr int kRowStride = 33;
+  static constexpr int kRowStride = 34;
   static constexpr int kMinv = W * kRowStride;
   static constexpr int kDiff = kMinv + W * W;
   // a product with M^-1: its right factor (W x W, row-major), replaced by the result
@@ -59,7 +60,8 @@ struct WarpShared {
   static constexpr int kSegmentShift = 16 / kSegments;
   static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
   static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
-  static_assert(kMinv % 2 == 0 && kProduct % 2 == 0 && kScalars % 2 == 0, "W x W blocks start 16 bytes apart");
+  static_assert(kRowStride % 2 == 0 && kMinv % 2 == 0 && kProduct % 2 == 0 && kScalars % 2 == 0,
+                "rows and W x W blocks start 16 bytes apart");
   static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
   // qdd and -M^-1 d tau/d qd
   static constexpr int kEarlyOutputs = W + W * W;
@@ -183,20 +185,52 @@ RBDGRAD_HD void ancestor_sum(Vec6<S>& x, const Jumps& j, const Lanes& g) {
   ancestor_sum(x.v, j, g);
 }
 
-// x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`):
-// each lane writes its own terms, then adds those of its descendants in index order
+// Pairs of values to and from shared memory (16-byte aligned): on the GPU one 16-byte access
+// per pair, half the instructions of one per value. The warp kernel computes in f64.
+template <class S>
+RBDGRAD_HD void store_pair(S* to, S a, S b) {
+#if defined(__CUDA_ARCH__)
+  static_assert(sizeof(S) == sizeof(double), "pairs of doubles");
+  *reinterpret_cast<double2*>(to) = make_double2(a, b);
+#else
+  to[0] = a;
+  to[1] = b;
+#endif
+}
+template <class S>
+RBDGRAD_HD void load_pair(const S* from, S& a, S& b) {
+#if defined(__CUDA_ARCH__)
+  static_assert(sizeof(S) == sizeof(double), "pairs of doubles");
+  const double2 v = *reinterpret_cast<const double2*>(from);
+  a = v.x;
+  b = v.y;
+#else
+  a = from[0];
+  b = from[1];
+#endif
+}
+
+// x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`,
+// both even: 16-byte pairs): each lane writes its own terms, then adds those of its descendants
+// in index order
 template <class S, int K, class Lanes>
 RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Lanes& g) {
-  for (int k = 0; k < K; ++k) rows[i * stride + k] = x[k];
+  static_assert(K % 2 == 0, "the terms go in pairs");
+  for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
   g.sync();
   for (int j = i + 1; j < end; ++j)
-    for (int k = 0; k < K; ++k) x[k] += rows[j * stride + k];
+    for (int k = 0; k < K; k += 2) {
+      S a, b;
+      load_pair(rows + j * stride + k, a, b);
+      x[k] += a;
+      x[k + 1] += b;
+    }
   g.sync();
 }
 
 template <class S>
 RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
-  for (int k = 0; k < 6; ++k) to[k] = x.v[k];
+  for (int k = 0; k < 6; k += 2) store_pair(to + k, x.v[k], x.v[k + 1]);
 }
 
 // where each joint vector sits in a row of the column passes: what a lane reads of the others
@@ -205,7 +239,7 @@ enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18 };
 template <class S>
 RBDGRAD_HD Vec6<S> load(const S* from) {
   Vec6<S> x;
-  for (int k = 0; k < 6; ++k) x.v[k] = from[k];
+  for (int k = 0; k < 6; k += 2) load_pair(from + k, x.v[k], x.v[k + 1]);
   return x;
 }
 
