@@ -260,6 +260,9 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   using warp::Inertia;
   constexpr int kFixedNv = FixedNv<Model>::value;
   static_assert(kFixedNv <= W, "a segment holds every joint");
+  // the rows of the columns that can hold values: the joints where their count is fixed (the
+  // rest of the W rows are zero and skipped), else all W
+  constexpr int kRows = kFixedNv > 0 ? kFixedNv : W;
   const int n = kFixedNv > 0 ? kFixedNv : m.nv, i = g.lane;
   const int levels = FixedLevels<Model>::value > 0 ? FixedLevels<Model>::value : m.levels;
   const bool joint = i < n;
@@ -285,7 +288,7 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   const warp::Jumps jumps = warp::jumps(parent, levels, g);
   // ancestors-or-self of this joint (bit r: joint r), for the column passes
   unsigned ancestors = 0;
-  for (int r = 0; r < W; ++r) {
+  for (int r = 0; r < kRows; ++r) {
     const int end_r = g.shfl(end, r);
     if (r <= i && i < end_r) ancestors |= 1u << r;
   }
@@ -439,7 +442,8 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   Vec6<S> E{};
   if (want_dqd) E = add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc));
   S col[W], dqd_col[W];
-  for (int r = 0; r < W; ++r) {
+  for (int r = kRows; r < W; ++r) col[r] = dqd_col[r] = S(0);
+  for (int r = 0; r < kRows; ++r) {
     const S* other = rows + r * kStride;
     const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS);
     const bool up = joint && (ancestors >> r & 1u), down = joint && r > i && r < end;
@@ -462,15 +466,15 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   } else {
     for (int pv = W - 1; pv >= 0; --pv) {
       if (pv >= n) continue;
-      S pivot_col[W];
-      for (int r = 0; r < W; ++r) pivot_col[r] = g.shfl(col[r], pv);
+      S pivot_col[kRows];
+      for (int r = 0; r < kRows; ++r) pivot_col[r] = g.shfl(col[r], pv);
       const S d = pivot_col[pv];
       // the first bad pivot in pivot order names the state's failure
       if (status == 0 && !is_finite(d)) status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
       else if (status == 0 && !(d > S(0))) status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
       const S rp = reciprocal(d);
       const S a_rp = col[pv] * rp;
-      for (int r = 0; r < W; ++r) {
+      for (int r = 0; r < kRows; ++r) {
         S x;
         if (r == pv && i == pv) x = rp;
         else if (r == pv) x = -a_rp;
@@ -551,7 +555,7 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc
     const Vec6<S> Dq = add(add(cross_force(axis, F_total), warp::mul(Ic, beta)),
                            add(warp::mul(dIc, alpha), cross_force(alpha, momc)));
-    for (int r = 0; r < W; ++r) {
+    for (int r = 0; r < kRows; ++r) {
       const S* other = rows + r * kStride;
       const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS),
                     Bc_t_S_r = warp::load(other + Column::kBcTS);
