@@ -74,13 +74,13 @@ template <int W, class Model, class IO, std::size_t kBytes>
 __global__ void __launch_bounds__(kWarpKernelThreads)
     warp_fused_inline_kernel(ModelView<double> model, BatchPointers<IO> batch,
                              const __grid_constant__ WarpInlineBlock<kBytes> inputs) {
-  const Model fixed(model);
+  const Model m(model);
   const IO* in = reinterpret_cast<const IO*>(inputs.bytes);
-  const std::uint64_t values = batch.n * static_cast<std::uint64_t>(fixed.nv);
+  const std::uint64_t values = batch.n * static_cast<std::uint64_t>(m.nv);
   batch.q = in;
   batch.qd = in + values;
   batch.u = in + 2 * values;
-  warp_fused_block<W, Model, IO, false>(fixed, batch);
+  warp_fused_block<W, Model, IO, false>(m, batch);
 }
 #endif
 
