@@ -15,7 +15,7 @@ Status load_cubin(const NvrtcOutput& compiled, std::size_t wanted, int device, s
                   cudaLibrary_t& library, std::vector<cudaKernel_t>& kernels) {
   // a cache file's list that is not the program's (another program's file under a colliding key)
   if (compiled.kernel_symbols.size() != wanted)
-    return internal("the compiled kernels are " + std::to_string(compiled.kernel_symbols.size()) + ", not " +
+    return internal("the compiled program has " + std::to_string(compiled.kernel_symbols.size()) + " kernels, not " +
                     std::to_string(wanted));
   if (cudaError_t e = cudaLibraryLoadData(&library, compiled.cubin.data(), nullptr, nullptr, 0, nullptr, nullptr, 0);
       e != cudaSuccess) {

@@ -34,7 +34,7 @@ __device__ long long g_warp_stage_clocks[WarpLanes<8>::kMaxStageClocks + 1];
 // The states of `batch` on the block's warps; kEarlyOutputs: warp_evaluate_state's early_outputs.
 template <int W, class Model, class IO, bool kEarlyOutputs>
 __device__ __forceinline__ void warp_fused_block(const Model& model, const BatchPointers<IO>& batch) {
-  extern __shared__ __align__(16) unsigned char shared[];  // 16: the products' paired stores
+  extern __shared__ __align__(16) unsigned char shared[];  // 16: the rows' and products' paired accesses
   constexpr int kPerWarp = WarpLanes<W>::kSegments;
   const int tid = static_cast<int>(threadIdx.x);
   WarpLanes<W> g;
