@@ -550,7 +550,8 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
   const WarpKernelTable* robot_warp = warp_table();
   const bool robot_warp_ran =
       robot_warp != nullptr && (std::is_same_v<S, float> ? robot_warp->f32[0] : robot_warp->f64[0]) != nullptr;
-  last_specific_ = block && (warp ? robot_warp_ran : (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr);
+  const bool robot_block_ran = (wide ? specialized<double, S>() : specialized<S, S>()) != nullptr;
+  last_specific_ = block && (warp ? robot_warp_ran : robot_block_ran);
   last_f32_in_f64_ = wide;
   last_chunks_ = chunks;
   last_mapped_ = mapped;

@@ -1,7 +1,7 @@
 // The block and warp kernels compiled for the robot at load (CudaInstance::specialize, NVRTC)
-// against the generic ones compiled into the plugin: the same numbers to rounding for every shipped robot, both
-// precisions, both input kinds, odd and even batch sizes, every output written. Needs a GPU and
-// NVRTC; skips with the reason without either. (The plugin tests, cuda_plugin_test.cpp, check the
+// against the generic ones compiled into the plugin: the same numbers to rounding for every
+// shipped robot, both precisions, both input kinds, odd and even batch sizes, every output
+// written. Needs a GPU and NVRTC; skips with the reason without either. (The plugin tests, cuda_plugin_test.cpp, check the
 // plugin's default, this kernel, against the Pinocchio reference.)
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
