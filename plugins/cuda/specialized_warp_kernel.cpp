@@ -1,5 +1,7 @@
 #include "specialized_warp_kernel.hpp"
 
+#include <algorithm>
+
 #include "kernel_source.hpp"
 
 namespace rbdgrad::cuda {
@@ -13,10 +15,10 @@ Status SpecializedWarpKernel::load(const Model& model, bool f32_batches, int dev
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedWarpKernel> k(new SpecializedWarpKernel());
-  // the warp kernel's shared memory stays within the default 48 KiB (warp_launch.hpp)
-  constexpr std::size_t kDefaultSharedBytes = 48 * 1024;
-  if (Status s = CompiledLibrary::load(warp_kernel_program(model, f32_batches, arch), device, kDefaultSharedBytes,
-                                       cache_dir, k->library_);
+  // the warp kernel's blocks stay within the default 48 KiB of shared memory (warp_kernel_entry.hpp)
+  constexpr std::size_t kSharedBytes = std::max(kWarpBlockSharedBytes<8>, kWarpBlockSharedBytes<16>);
+  if (Status s = CompiledLibrary::load(warp_kernel_program(model, f32_batches, arch), device, kSharedBytes, cache_dir,
+                                       k->library_);
       !s)
     return s;
   for (int e = 0; e < kWarpEntries; ++e) {

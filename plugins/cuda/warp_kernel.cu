@@ -57,11 +57,9 @@ KernelLaunch warp_fused_launch(const ModelView<double>& model, const BatchPointe
   const void* specific = nullptr;
   if (robot != nullptr) specific = (std::is_same_v<IO, float> ? robot->f32 : robot->f64)[static_cast<int>(entry)];
   l.function = specific != nullptr ? specific : W == 8 ? generic_kernel<8, IO>(entry) : generic_kernel<16, IO>(entry);
-  const int warp_scalars = W == 8 ? WarpShared<8>::warp_scalars(WarpLanes<8>::kSegments)
-                                  : WarpShared<16>::warp_scalars(WarpLanes<16>::kSegments);
   l.grid = dim3(static_cast<unsigned>((n + per_block - 1) / per_block));
   l.block = dim3(kWarpKernelThreads);
-  l.shared_bytes = static_cast<std::size_t>(warp_scalars) * sizeof(double) * (kWarpKernelThreads / 32);
+  l.shared_bytes = W == 8 ? kWarpBlockSharedBytes<8> : kWarpBlockSharedBytes<16>;
   return l;
 }
 

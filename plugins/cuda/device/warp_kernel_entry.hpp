@@ -8,9 +8,17 @@
 
 namespace rbdgrad::cuda {
 
-/// Threads per block: 64 (two warps) holds 8 or 4 states in at most 34 KiB of shared memory,
+/// Threads per block: 64 (two warps) holds 8 or 4 states in at most 43 KiB of shared memory,
 /// within the default limit, and lets a small batch spread over the most SMs.
 inline constexpr int kWarpKernelThreads = 64;
+/// A block's shared memory for segments of W lanes.
+template <int W>
+inline constexpr std::size_t kWarpBlockSharedBytes =
+    static_cast<std::size_t>(WarpShared<W>::warp_scalars(WarpLanes<W>::kSegments)) * sizeof(double) *
+    (kWarpKernelThreads / 32);
+// no kernel attribute needed: the default allowance (and SpecializedWarpKernel's)
+static_assert(kWarpBlockSharedBytes<8> <= 48 * 1024 && kWarpBlockSharedBytes<16> <= 48 * 1024,
+              "the warp kernel's blocks fit the default 48 KiB of shared memory");
 
 /// A small batch's inputs carried in the kernel's parameters (q, qd, then u, each n x nv in the
 /// batch's scalars): the launch brings them to the SMs, which then read no host memory over PCIe
