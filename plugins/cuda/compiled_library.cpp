@@ -1,6 +1,7 @@
 #include "compiled_library.hpp"
 
 #include <chrono>
+#include <cstdio>
 
 #include "cuda_device.hpp"
 
@@ -73,6 +74,12 @@ Status CompiledLibrary::load(const NvrtcProgram& program, int device, std::size_
   k->seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out = std::move(k);
   return Status::ok();
+}
+
+std::string CompiledLibrary::description() const {
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%.1f s", seconds_);
+  return std::string(kernel_origin_name(origin_)) + ", " + seconds + (warning_.empty() ? "" : ", " + warning_);
 }
 
 CompiledLibrary::~CompiledLibrary() {

@@ -38,6 +38,8 @@ class CompiledLibrary {
   double seconds() const { return seconds_; }
   /// A failed write to the disk cache, else "".
   const std::string& warning() const { return warning_; }
+  /// "compiled, 2.1 s", "disk cache, 0.1 s", then the warning where there is one: for logs.
+  std::string description() const;
 
  private:
   CompiledLibrary() = default;

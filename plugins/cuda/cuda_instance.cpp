@@ -287,10 +287,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
       parts += "generic kernel, " + s.message().substr(0, s.message().find('\n'));
       continue;
     }
-    char seconds[32];
-    std::snprintf(seconds, sizeof seconds, "%.1f s", k->seconds());
-    parts += std::string(kernel_origin_name(k->origin())) + ", " + seconds;
-    if (!k->warning().empty()) parts += ", " + k->warning();
+    parts += k->library().description();
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64
   specialized_warp_.reset();
@@ -298,15 +295,8 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
   if (model_.nv <= kMaxWarpNv) {
     const Status s = SpecializedWarpKernel::load(model_, f32_in_f64(), device_, cache_dir, specialized_warp_);
     if (!s && first) first = s;
-    if (!s) {
-      warp_build_ = " (generic, " + s.message().substr(0, s.message().find('\n')) + ")";
-    } else {
-      char seconds[32];
-      std::snprintf(seconds, sizeof seconds, "%.1f s", specialized_warp_->seconds());
-      warp_build_ = std::string(" (compiled for this robot: ") + kernel_origin_name(specialized_warp_->origin()) +
-                    ", " + seconds + (specialized_warp_->warning().empty() ? "" : ", " + specialized_warp_->warning()) +
-                    ")";
-    }
+    warp_build_ = s ? " (compiled for this robot: " + specialized_warp_->library().description() + ")"
+                    : " (generic, " + s.message().substr(0, s.message().find('\n')) + ")";
   }
   block_description_ = (specialized_f64_ || specialized_f32_ ? "kernel compiled for this robot (" : "generic kernel (") +
                        parts + ")" + (f32_in_f64() ? ", f32 batches computed in f64" : "") +

@@ -38,11 +38,8 @@ class SpecializedBlockKernel {
   bool launch_config(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      KernelLaunch& out) const;
 
-  KernelOrigin origin() const { return library_->origin(); }
-  /// Seconds spent compiling (0 from a cache) and loading.
-  double seconds() const { return library_->seconds(); }
-  /// A failed write to the disk cache, else "".
-  const std::string& warning() const { return library_->warning(); }
+  /// Where it came from and how long it took (CompiledLibrary::description).
+  const CompiledLibrary& library() const { return *library_; }
 
  private:
   SpecializedBlockKernel() = default;

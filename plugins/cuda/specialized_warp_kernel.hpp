@@ -24,9 +24,7 @@ class SpecializedWarpKernel {
                      std::unique_ptr<SpecializedWarpKernel>& out);
 
   const WarpKernelTable& table() const { return table_; }
-  KernelOrigin origin() const { return library_->origin(); }
-  double seconds() const { return library_->seconds(); }
-  const std::string& warning() const { return library_->warning(); }
+  const CompiledLibrary& library() const { return *library_; }
 
  private:
   SpecializedWarpKernel() = default;

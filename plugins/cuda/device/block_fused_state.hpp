@@ -92,7 +92,7 @@ struct FixedDivider {
 };
 template <class Model>
 RBDGRAD_HD auto divider_for(int n) {
-  if constexpr (FixedNv<Model>::value > 0) return FixedDivider<FixedNv<Model>::value>{};
+  if constexpr (FixedSizes<Model>::nv > 0) return FixedDivider<FixedSizes<Model>::nv>{};
   else return Divider(n);
 }
 

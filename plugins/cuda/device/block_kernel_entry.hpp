@@ -29,7 +29,7 @@ __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch>
 __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
-  const int nv = FixedNv<Model>::value > 0 ? FixedNv<Model>::value : global_model.nv;
+  const int nv = FixedSizes<Model>::nv > 0 ? FixedSizes<Model>::nv : global_model.nv;
   // the robot's constants into shared memory first, by the whole block: the passes read them
   // over and over, and a chain of global loads (parent of parent ...) would cost a round trip each
   const int scalars = ModelLayout::scalars(nv), ints = ModelLayout::ints(nv);

@@ -52,23 +52,15 @@ struct FixedSizeModelView : ModelView<S> {
   RBDGRAD_HD explicit FixedSizeModelView(const ModelView<S>& view) : ModelView<S>(view) {}
 };
 
-// The number of joints a model type fixes at compile time, 0 for run-time sizes.
+// The number of joints and the tree depth a model type fixes at compile time, 0 for run-time
+// sizes.
 template <class Model>
-struct FixedNv {
-  static constexpr int value = 0;
+struct FixedSizes {
+  static constexpr int nv = 0, levels = 0;
 };
 template <class S, int NV, int LEVELS>
-struct FixedNv<FixedSizeModelView<S, NV, LEVELS>> {
-  static constexpr int value = NV;
-};
-// The tree depth a model type fixes at compile time, 0 for run-time sizes.
-template <class Model>
-struct FixedLevels {
-  static constexpr int value = 0;
-};
-template <class S, int NV, int LEVELS>
-struct FixedLevels<FixedSizeModelView<S, NV, LEVELS>> {
-  static constexpr int value = LEVELS;
+struct FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {
+  static constexpr int nv = NV, levels = LEVELS;
 };
 
 // Where each array starts, in scalars of the S block and ints of the int block.

@@ -258,13 +258,13 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
                                     bool active, bool early_outputs, const Lanes& g) {
   using warp::Column;
   using warp::Inertia;
-  constexpr int kFixedNv = FixedNv<Model>::value;
+  constexpr int kFixedNv = FixedSizes<Model>::nv;
   static_assert(kFixedNv <= W, "a segment holds every joint");
   // the rows of the columns that can hold values: the joints where their count is fixed (the
   // rest of the W rows are zero and skipped), else all W
   constexpr int kRows = kFixedNv > 0 ? kFixedNv : W;
   const int n = kFixedNv > 0 ? kFixedNv : m.nv, i = g.lane;
-  const int levels = FixedLevels<Model>::value > 0 ? FixedLevels<Model>::value : m.levels;
+  const int levels = FixedSizes<Model>::levels > 0 ? FixedSizes<Model>::levels : m.levels;
   const bool joint = i < n;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   constexpr bool kFixed = kStages != block_stages::kPerBatch;
