@@ -1,5 +1,7 @@
 #include "kernel_source.hpp"
 
+#include <cstdio>
+
 #include "device/warp_kernel_entry.hpp"
 
 namespace rbdgrad::cuda {
@@ -37,6 +39,13 @@ std::vector<std::string> compile_options(int arch) {
   return {"-std=c++17", "--gpu-architecture=sm_" + std::to_string(arch), "--fmad=true"};
 }
 
+// an unsigned long long template argument in C++ source
+std::string hex_constant(unsigned long long value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "0x%llxull", value);
+  return text;
+}
+
 }  // namespace
 
 NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch, int stages) {
@@ -72,7 +81,14 @@ NvrtcProgram warp_kernel_program(const Model& model, bool f32_batches, int arch)
              ".\n#include \"warp_kernel_entry.hpp\"\n";
   p.headers.assign(kEmbeddedDeviceHeaders, kEmbeddedDeviceHeaders + kEmbeddedDeviceHeaderCount);
   p.options = compile_options(arch);
-  const std::string fixed = "rbdgrad::cuda::FixedSizeModelView<double, " + nv + ", " + levels + ">";
+  // the tree as FixedTreeModelView packs it: parent + 1 and subtree end - 1, 4 bits a joint
+  unsigned long long parents = 0, ends = 0;
+  for (int i = 0; i < model.nv; ++i) {
+    parents |= static_cast<unsigned long long>(model.parent[i] + 1) << (4 * i);
+    ends |= static_cast<unsigned long long>(model.subtree_end[i] - 1) << (4 * i);
+  }
+  const std::string fixed = "rbdgrad::cuda::FixedTreeModelView<double, " + nv + ", " + levels + ", " +
+                            hex_constant(parents) + ", " + hex_constant(ends) + ">";
   for (const char* io : {"double", "float"}) {
     if (std::string(io) == "float" && !f32_batches) break;
     // in WarpEntry's order

@@ -11,12 +11,14 @@
 //   a symmetric 3x3 (10 values, not 36), and the B operator of the core's derivatives as
 //   B x = dI x + x x* h, where dI = v x* I - I v x is the inertia's rate (again a spatial inertia,
 //   of zero mass) and h = I v the momentum: sums over a subtree stay in that form (26 values);
-// - the columns of M, d tau/d qd and d tau/d q one per lane;
+// - the columns of M, d tau/d qd and d tau/d q as products of the joints' rows of vectors, masked
+//   by the tree (an entry is one product or another as its row is an ancestor or a descendant of
+//   its column's joint), on the FP64 tensor cores (WarpLanes::tree_product);
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
 //   a state fails at the same joint for the same reason;
 // - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
-// - the outputs staged in shared memory, a warp's states one after the other, and written by the
-//   whole warp as whole lines.
+// - the outputs written from shared memory (M^-1 and the products where they are computed, qdd
+//   staged), a warp's states one after the other, by the whole warp as whole lines.
 // It computes in f64 (S = double: the GPUs whose f64 is fast, where f32 batches run in f64 as
 // well); f32 batches elsewhere take the block kernel.
 #pragma once
@@ -36,37 +38,39 @@ inline constexpr int kMaxWarpNv = 16;
 RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <= 16 ? 16 : 0; }
 
 // Shared memory of a warp: its segments' regions one after the other, kScalars each, then
-// kEarlyOutputs per segment for the outputs that go out before d tau/d q is computed (with
-// early_outputs, warp_evaluate_state).
-// A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors the
-// column passes read), M^-1 (W x W, row-major), tau - c, and the right factor of a product with
-// M^-1 (the W x W blocks 16-byte aligned, for the products' paired stores); at the end, the warp's
-// regions take its last outputs on their way out. The rows are read and written 16 bytes at a
-// time (warp::load_pair): the row stride, 34 doubles, keeps them 16-byte aligned and puts the 8
-// lanes of a quarter warp, each reading 16 bytes of its own row, on the 32 banks once; the regions
-// are padded so that the segments of a warp start 32 / kSegments banks apart: the segments' reads
-// of the same row (the column passes) then hit different banks (without the padding, 48% of the
-// kernel's shared-memory wavefronts were bank conflicts, ncu, run 49).
+// kStagedQdd per segment for qdd on its way out.
+// A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors that the
+// products of rows read, six of them for d tau/d q's), M^-1 (W x W, row-major), tau - c, and the
+// right factors of the products with M^-1 for d tau/d qd and d tau/d q, replaced by the products
+// (the W x W blocks 16-byte aligned, for the products' paired stores). M^-1 and the products go
+// out from there (WarpLanes::write_warp_matrix). The rows are read and written 16 bytes at a time
+// (warp::load_pair): the row stride, 38 doubles, keeps them 16-byte aligned and puts rows 12 banks
+// apart, so that the 8 lanes of a quarter warp, each reading 16 bytes of its own row, cover the
+// 32 banks once, and the tensor-core steps' loads (8 rows, 32 bytes of each) take the two
+// wavefronts of their 256 bytes; the regions are padded so that the segments of a warp start
+// 32 / kSegments banks apart: the segments' reads of the same row (the subtree sums) then hit
+// different banks (without the padding, 48% of the kernel's shared-memory wavefronts were bank
+// conflicts, ncu, run 49).
 template <int W>
 struct WarpShared {
   static constexpr int kSegments = 32 / W;
-  static constexpr int kRowStride = 34;
+  static constexpr int kRowStride = 38;
   static constexpr int kMinv = W * kRowStride;
   static constexpr int kDiff = kMinv + W * W;
-  // a product with M^-1: its right factor (W x W, row-major), replaced by the result
-  static constexpr int kProduct = kDiff + W;
-  static constexpr int kUsed = kProduct + W * W;
+  // the products with M^-1: their right factors (W x W, row-major), replaced by the results
+  static constexpr int kProductDqd = kDiff + W;
+  static constexpr int kProductDq = kProductDqd + W * W;
+  static constexpr int kUsed = kProductDq + W * W;
   // doubles (two banks each) between segments, modulo the 16 doubles of a row of banks
   static constexpr int kSegmentShift = 16 / kSegments;
   static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
   static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
-  static_assert(kRowStride % 2 == 0 && kMinv % 2 == 0 && kProduct % 2 == 0 && kScalars % 2 == 0,
+  static_assert(kRowStride % 2 == 0 && kMinv % 2 == 0 && kProductDqd % 2 == 0 && kProductDq % 2 == 0 &&
+                    kScalars % 2 == 0,
                 "rows and W x W blocks start 16 bytes apart");
-  static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
-  // qdd and -M^-1 d tau/d qd
-  static constexpr int kEarlyOutputs = W + W * W;
+  static constexpr int kStagedQdd = W;
   // scalars of a warp of `segments` segments
-  static RBDGRAD_HD constexpr int warp_scalars(int segments) { return segments * (kScalars + kEarlyOutputs); }
+  static RBDGRAD_HD constexpr int warp_scalars(int segments) { return segments * (kScalars + kStagedQdd); }
 };
 
 // The warp kernel takes what the block kernel takes, in f64, up to kMaxWarpNv joints.
@@ -166,6 +170,23 @@ RBDGRAD_HD Jumps jumps(int parent, int levels, const Lanes& g) {
   }
   return j;
 }
+// The same from a model type that fixes the tree (FixedTree<Model>::known): no shuffles
+template <class Model>
+RBDGRAD_HD Jumps tree_jumps(const Model& m, int parent, int levels) {
+  Jumps j;
+  j.rounds = 0;
+  while ((1 << j.rounds) < levels) ++j.rounds;
+  j.to[0] = parent;
+  for (int r = 0; r + 1 < kMaxRounds; ++r) {
+    int at = j.to[r];
+    if (r + 1 < j.rounds)
+      for (int s = 0; s < (1 << r); ++s) at = at < 0 ? -1 : FixedTree<Model>::parent(m, at);
+    else
+      at = -1;  // no round reads it
+    j.to[r + 1] = at;
+  }
+  return j;
+}
 
 // x over the joint and its ancestors, by pointer jumping: after round r a lane holds the sum over
 // its joint and the 2^(r+1) - 1 joints above it
@@ -212,19 +233,37 @@ RBDGRAD_HD void load_pair(const S* from, S& a, S& b) {
 
 // x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`,
 // both even: 16-byte pairs): each lane writes its own terms, then adds those of its descendants
-// in index order
-template <class S, int K, class Lanes>
+// in index order. kRows = 0: each lane reads its descendants' rows. kRows > 0: every lane reads
+// rows 1 .. kRows - 1 and keeps its descendants': the lanes of a segment read the same row, one
+// address a segment where each lane reading a row of its own took four times the shared-memory
+// wavefronts (ncu, run 68: the subtree sums took a third of the kernel's), for kRows - 1 reads
+// instead of the most descendants of a joint (the same for a chain).
+template <int kRows, class S, int K, class Lanes>
 RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Lanes& g) {
   static_assert(K % 2 == 0, "the terms go in pairs");
   for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
   g.sync();
-  for (int j = i + 1; j < end; ++j)
-    for (int k = 0; k < K; k += 2) {
-      S a, b;
-      load_pair(rows + j * stride + k, a, b);
-      x[k] += a;
-      x[k + 1] += b;
+  if constexpr (kRows > 0) {
+    for (int j = 1; j < kRows; ++j) {
+      const bool descendant = i < j && j < end;
+      for (int k = 0; k < K; k += 2) {
+        S a, b;
+        load_pair(rows + j * stride + k, a, b);
+        if (descendant) {
+          x[k] += a;
+          x[k + 1] += b;
+        }
+      }
     }
+  } else {
+    for (int j = i + 1; j < end; ++j)
+      for (int k = 0; k < K; k += 2) {
+        S a, b;
+        load_pair(rows + j * stride + k, a, b);
+        x[k] += a;
+        x[k + 1] += b;
+      }
+  }
   g.sync();
 }
 
@@ -233,8 +272,9 @@ RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
   for (int k = 0; k < 6; k += 2) store_pair(to + k, x.v[k], x.v[k + 1]);
 }
 
-// where each joint vector sits in a row of the column passes: what a lane reads of the others
-enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18 };
+// where each joint vector sits in a row: what the products of rows read (WarpLanes::tree_product).
+// kUp: E, then Dq; kDown: 2 alpha, then beta; f_qdd's subtree sum at kFqdd before Dq goes there.
+enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18, kUp = 18, kDown = 24, kAlpha = 30 };
 
 template <class S>
 RBDGRAD_HD Vec6<S> load(const S* from) {
@@ -283,13 +323,17 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     qd = static_cast<S>(b.qd[state * vec + i]);
     u = static_cast<S>(b.u[state * vec + i]);
   }
-  const int parent = joint ? m.parent[i] : -1;
-  const int end = joint ? m.subtree_end[i] : i + 1;
-  const warp::Jumps jumps = warp::jumps(parent, levels, g);
-  // ancestors-or-self of this joint (bit r: joint r), for the column passes
+  using Tree = FixedTree<Model>;
+  // the subtree sums read every row where that takes at most twice the reads of the joint with
+  // the most descendants (a chain: as many), else each lane its descendants' (warp::subtree_sum)
+  constexpr int kSubtreeRows = Tree::known && kFixedNv - 1 <= 2 * Tree::max_descendants() ? kFixedNv : 0;
+  const int parent = joint ? Tree::parent(m, i) : -1;
+  const int end = joint ? Tree::subtree_end(m, i) : i + 1;
+  const warp::Jumps jumps = Tree::known ? warp::tree_jumps(m, parent, levels) : warp::jumps(parent, levels, g);
+  // ancestors-or-self of this joint (bit r: joint r), the up rows of its columns
   unsigned ancestors = 0;
   for (int r = 0; r < kRows; ++r) {
-    const int end_r = g.shfl(end, r);
+    const int end_r = Tree::known ? Tree::subtree_end(m, r) : g.shfl(end, r);
     if (r <= i && i < end_r) ancestors |= 1u << r;
   }
 
@@ -414,7 +458,7 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
       terms[2 * warp::kInertiaTerms + k] = mom.v[k];
       terms[2 * warp::kInertiaTerms + 6 + k] = f.v[k];
     }
-    warp::subtree_sum(terms, rows, kStride, i, end, g);
+    warp::subtree_sum<kSubtreeRows>(terms, rows, kStride, i, end, g);
     Ic = warp::unpack(terms);
     dIc = warp::unpack(terms + warp::kInertiaTerms);
     for (int k = 0; k < 6; ++k) {
@@ -433,29 +477,33 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   warp::store(row + Column::kAxis, axis);
   warp::store(row + Column::kIcS, Ic_S);
   warp::store(row + Column::kBcTS, Bc_t_S);
-  g.sync();
+  if (want_dqd) {
+    warp::store(row + Column::kUp, add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc)));  // E
+    warp::store(row + Column::kDown, scaled(alpha, S(2)));
+  }
+  // the columns of M, d tau/d qd and d tau/d q: row r of column i from the pair (r, i) of the block
+  // kernel, r an ancestor-or-self ("up") or a strict descendant ("down") of joint i, else zero
+  TreeRows keep;
+  if (joint) {
+    keep.up = ancestors;
+    keep.down = ((1u << end) - 1u) & ~((2u << i) - 1u);
+  }
+  const auto tree = g.tree(keep);
 
   g.stamp();  // joint vectors
-  // this lane's columns of M and d tau/d qd, row r from the pair (r, i) of the block kernel: r an
-  // ancestor-or-self ("up") or a strict descendant ("down") of joint i, else zero. Both values
-  // are computed and one kept: no branch, so that every row's loads can go first
-  Vec6<S> E{};
-  if (want_dqd) E = add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc));
-  S col[W], dqd_col[W];
-  for (int r = kRows; r < W; ++r) col[r] = dqd_col[r] = S(0);
-  for (int r = 0; r < kRows; ++r) {
-    const S* other = rows + r * kStride;
-    const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS);
-    const bool up = joint && (ancestors >> r & 1u), down = joint && r > i && r < end;
-    const S m_up = dot(S_r, Ic_S), m_down = dot(axis, Ic_S_r);
-    col[r] = up ? m_up : down ? m_down : S(0);
-    dqd_col[r] = S(0);
-    if (want_dqd) {
-      const Vec6<S> Bc_t_S_r = warp::load(other + Column::kBcTS);
-      const S d_up = dot(S_r, E), d_down = S(2) * dot(Ic_S_r, alpha) + dot(Bc_t_S_r, axis);
-      dqd_col[r] = up ? d_up : down ? d_down : S(0);
-    }
+  // M: up S_r . Ic_S, down Ic_S_r . S (into M^-1's place, this lane's column read back); d tau/d qd:
+  // up S_r . E, down Ic_S_r . 2 alpha + Bc^T_S_r . S (into the right factor of its product with
+  // M^-1)
+  S col[W];
+  if (!minv_supplied) {
+    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<RowTerm<Column::kIcS, Column::kAxis>>{},
+                   tree, rows, kStride, minv_rows);
+    for (int r = 0; r < W; ++r) col[r] = minv_rows[r * W + i];
   }
+  if (want_dqd)
+    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
+                   RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAxis>>{}, tree,
+                   rows, kStride, sh + WarpShared<W>::kProductDqd);
 
   g.stamp();  // columns of M and d tau/d qd
   // M^-1: the caller's, or by exchange steps on the columns (leaves first, as the block kernel);
@@ -495,48 +543,33 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     for (int j = 0; j < n; ++j) qdd += minv_rows[i * W + j] * diff[j];
   }
 
-  // The outputs are staged in shared memory, a warp's states one after the other, and written by
-  // the whole warp as whole lines; a value that leaves IO's range or is not finite flags the
-  // state. With early_outputs, qdd and -M^-1 d tau/d qd go out now, from the warp's area for
-  // them, so that their writes overlap d tau/d q (large batches gain); otherwise everything goes
-  // at the end (host memory over PCIe in the middle of the kernel costs a small batch's state
-  // more than it saves).
-  bool bad = false;
-  const auto put = [&](S* to, S x) {
-    const IO y = static_cast<IO>(x);
-    bad = bad || !is_finite(y);
-    *to = static_cast<S>(y);
-  };
-  // -M^-1 x, x this lane's column (zero past the joints, as M^-1 is), for every segment's state at
-  // once: the columns into the product area, the product by the lanes (the tensor cores on the
-  // GPU), this lane's column of it back
-  S* const product = sh + WarpShared<W>::kProduct;
-  const auto minv_product = [&](const S(&x)[W], S(&out)[W]) {
-    for (int r = 0; r < W; ++r) product[r * W + i] = x[r];
-    g.product(minv_rows, product);
-    for (int r = 0; r < W; ++r) out[r] = -product[r * W + i];
-  };
-  const int n2 = n * n;
-  if (early_outputs) {
-    S* const staged_qdd = g.warp_shared(sh) + Lanes::kSegments * g.shared_stride;
-    S* const staged_dqd = staged_qdd + Lanes::kSegments * n;
-    if (joint) put(staged_qdd + g.segment * n + i, qdd);
-    if (want_dqd) {
-      S dqd_out[W];
-      minv_product(dqd_col, dqd_out);
-      if (joint)
-        for (int r = 0; r < W; ++r)
-          if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, dqd_out[r]);
-    }
-    g.sync();
-    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
-    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  // The outputs go out from shared memory, a warp's states one after the other, written by the
+  // whole warp as whole lines: qdd staged, M^-1 and the products from where they are
+  // (WarpLanes::write_warp_matrix); a value that leaves IO's range or is not finite flags the
+  // state. With early_outputs, qdd and -M^-1 d tau/d qd go out now, so that their writes overlap
+  // d tau/d q (large batches gain); otherwise everything goes at the end (host memory over PCIe in
+  // the middle of the kernel costs a small batch's state more than it saves).
+  S* const warp_sh = g.warp_shared(sh);
+  unsigned bad_states = 0;  // bit s: segment s's state (write_warp_matrix)
+  bool bad = false;         // this lane's qdd
+  {
+    const IO y = static_cast<IO>(qdd);
+    bad = joint && !is_finite(y);
+    if (joint) (warp_sh + Lanes::kSegments * g.shared_stride)[g.segment * n + i] = static_cast<S>(y);
   }
+  // -M^-1 d tau/d qd: the product in place of its right factor, negated on its way out
+  if (want_dqd) g.product(minv_rows, sh + WarpShared<W>::kProductDqd);
+  const auto write_qdd_dqd = [&] {
+    g.sync();
+    g.write_warp(warp_sh + Lanes::kSegments * g.shared_stride, b.out[output_index(kOutputQdd)], n);
+    if (want_dqd)
+      bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kProductDqd, S(-1),
+                                        b.out[output_index(kOutputDqddDqd)], n);
+  };
+  if (early_outputs) write_qdd_dqd();
 
   g.stamp();  // qdd (with early_outputs, the first outputs)
-  // d tau/d q: the motion due to qdd, beta, the subtree force with it, then this lane's column
-  S dq_col[W];
-  for (int r = 0; r < W; ++r) dq_col[r] = S(0);
+  // d tau/d q: the motion due to qdd, beta, the subtree force with it, then the columns
   if (want_dq) {
     Vec6<S> a_qdd = scaled(axis, qdd);
     warp::ancestor_sum(a_qdd, jumps, g);
@@ -549,52 +582,31 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     S f_qdd[6];
     const Vec6<S> Ia = warp::mul(I, a_qdd);
     for (int k = 0; k < 6; ++k) f_qdd[k] = Ia.v[k];
-    warp::subtree_sum(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
+    warp::subtree_sum<kSubtreeRows>(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
     Vec6<S> F_total;
     for (int k = 0; k < 6; ++k) F_total.v[k] = F.v[k] + f_qdd[k];
-    // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc
+    // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc; the columns: up S_r . Dq,
+    // down Ic_S_r . beta + Bc^T_S_r . alpha
     const Vec6<S> Dq = add(add(cross_force(axis, F_total), warp::mul(Ic, beta)),
                            add(warp::mul(dIc, alpha), cross_force(alpha, momc)));
-    for (int r = 0; r < kRows; ++r) {
-      const S* other = rows + r * kStride;
-      const Vec6<S> S_r = warp::load(other + Column::kAxis), Ic_S_r = warp::load(other + Column::kIcS),
-                    Bc_t_S_r = warp::load(other + Column::kBcTS);
-      const bool up = joint && (ancestors >> r & 1u), down = joint && r > i && r < end;
-      const S q_up = dot(S_r, Dq), q_down = dot(Ic_S_r, beta) + dot(Bc_t_S_r, alpha);
-      dq_col[r] = up ? q_up : down ? q_down : S(0);
-    }
+    warp::store(row + Column::kUp, Dq);
+    warp::store(row + Column::kDown, beta);
+    warp::store(row + Column::kAlpha, alpha);
+    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
+                   RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAlpha>>{}, tree,
+                   rows, kStride, sh + WarpShared<W>::kProductDq);
   }
 
   g.stamp();  // d tau/d q
-  // the last outputs. Every segment done with its shared memory, the warp's regions (consecutive)
-  // take them.
-  S dq_out[W] = {}, dqd_out[W] = {};
-  if (want_dq) minv_product(dq_col, dq_out);
-  if (want_dqd && !early_outputs) minv_product(dqd_col, dqd_out);
+  // the last outputs: -M^-1 d tau/d q as -M^-1 d tau/d qd above, M^-1 from its place
+  if (want_dq) g.product(minv_rows, sh + WarpShared<W>::kProductDq);
   g.sync();
-  S* const staged_dq = g.warp_shared(sh);
-  S* const staged_minv = staged_dq + Lanes::kSegments * n2;
-  S* const staged_dqd = staged_minv + Lanes::kSegments * n2;
-  S* const staged_qdd = staged_dqd + Lanes::kSegments * n2;
-  const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  if (joint) {
-    if (!early_outputs) put(staged_qdd + g.segment * n + i, qdd);
-    for (int r = 0; r < W; ++r) {
-      if (r >= n) continue;
-      const int at = g.segment * n2 + r * n + i;
-      if (want_dq) put(staged_dq + at, dq_out[r]);
-      if (want_minv) put(staged_minv + at, col[r]);  // M^-1(r, i), as in minv_rows
-      if (want_dqd && !early_outputs) put(staged_dqd + at, dqd_out[r]);
-    }
-  }
-  g.sync();
-  if (want_dq) g.write_warp(staged_dq, b.out[output_index(kOutputDqddDq)], n2);
-  if (want_minv) g.write_warp(staged_minv, b.out[output_index(kOutputMinv)], n2);
-  if (!early_outputs) {
-    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
-    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
-  }
-  const bool any_bad = g.any(bad);
+  if (want_dq)
+    bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kProductDq, S(-1), b.out[output_index(kOutputDqddDq)], n);
+  if ((b.outputs & kOutputMinv) != 0)
+    bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kMinv, S(1), b.out[output_index(kOutputMinv)], n);
+  if (!early_outputs) write_qdd_dqd();
+  const bool any_bad = (g.or_warp(bad_states | (bad ? 1u << g.segment : 0u)) >> g.segment & 1u) != 0;
   g.stamp();  // outputs
   if (i == 0 && active) {
     if (status == 0 && any_bad) status = not_finite<S>(Algorithm::kFdDerivatives);

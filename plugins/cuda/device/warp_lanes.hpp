@@ -21,6 +21,63 @@ RBDGRAD_HD void lane_column_product(const S* A, S* B, int lane) {
   for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
 }
 
+// Products of the rows of a state's joints (each row a joint's vectors, `stride` scalars apart) that
+// keep, in column n, the rows of n's ancestors-or-self ("up") and of its strict descendants
+// ("down"), the rest zero: the columns of M, d tau/d qd and d tau/d q (warp_fused_state.hpp).
+// A term: rows[r][A, A + 6) . rows[n][B, B + 6), six values of a joint vector each.
+template <int A, int B>
+struct RowTerm {
+  static constexpr int a = A, b = B;
+};
+template <class... Terms>
+struct RowTerms {};
+
+// The rows a column keeps, bit r for row r.
+struct TreeRows {
+  unsigned up = 0, down = 0;
+};
+
+template <class Term, class S>
+RBDGRAD_HD S row_term(const S* r, const S* n) {
+  S x = r[Term::a] * n[Term::b];
+  for (int k = 1; k < 6; ++k) x += r[Term::a + k] * n[Term::b + k];
+  return x;
+}
+
+// out(r, lane) = up(r) ? sum of the Up terms : down(r) ? sum of the Down terms : 0 for r < W
+// (out W x W, row-major): a lane's own column, where there are no FP64 tensor cores, and the
+// tests' host lanes.
+template <int W, class... Up, class... Down, class S>
+RBDGRAD_HD void lane_tree_column(RowTerms<Up...>, RowTerms<Down...>, const S* rows, int stride, TreeRows keep, S* out,
+                                 int lane) {
+  const S* mine = rows + lane * stride;
+  for (int r = 0; r < W; ++r) {
+    const S* other = rows + r * stride;
+    S x = S(0);
+    if (keep.up >> r & 1u) x = (S(0) + ... + row_term<Up>(other, mine));
+    else if (keep.down >> r & 1u) x = (S(0) + ... + row_term<Down>(other, mine));
+    out[r * W + lane] = x;
+  }
+}
+
+// The part of WarpLanes::write_warp_matrix that thread `thread` of `threads` writes (the GPU's
+// lanes and the tests' host lanes alike).
+template <int W, class S, class IO>
+RBDGRAD_HD unsigned write_matrices_part(const S* warp_shared, int shared_stride, int offset, S sign, IO* out,
+                                        int n, std::uint64_t first_state, int states, int thread, int threads) {
+  if (out == nullptr) return 0;
+  const int n2 = n * n;
+  IO* to = out + first_state * static_cast<std::uint64_t>(n2);
+  unsigned bad = 0;
+  for (int e = thread; e < states * n2; e += threads) {
+    const int s = e / n2, rest = e - s * n2, r = rest / n, c = rest - r * n;
+    const IO y = static_cast<IO>(sign * warp_shared[s * shared_stride + offset + r * W + c]);
+    if (!is_finite(y)) bad |= 1u << s;
+    to[e] = y;
+  }
+  return bad;
+}
+
 template <int W>
 struct WarpLanes {
   static_assert(W == 8 || W == 16, "a segment is 8 or 16 lanes");
@@ -79,6 +136,42 @@ struct WarpLanes {
     (void)count;
 #endif
   }
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+  // c += one term's A(row, k) B(k, column) over its six k (lane quad's k of each step)
+  template <class Term>
+  static __device__ void mma_term(double (&c)[2], const double* a_row, const double* b_row, int quad) {
+    for (int kc = 0; kc < 2; ++kc) {
+      const int k = 4 * kc + quad;
+      const bool in = k < 6;  // the second step's k = 6, 7: zeros (a row's other values may be anything)
+      const double a = in ? a_row[Term::a + k] : 0.0, b = in ? b_row[Term::b + k] : 0.0;
+      asm("mma.sync.aligned.m8n8k4.row.col.f64.f64.f64.f64 {%0, %1}, {%2}, {%3}, {%0, %1};"
+          : "+d"(c[0]), "+d"(c[1])
+          : "d"(a), "d"(b));
+    }
+  }
+#endif
+  // Writes sign m_s(r, c), r, c < n, of the warp's states to out + first_state n^2, consecutive
+  // lanes at consecutive addresses (whole lines of memory), m_s W x W row-major at `offset`
+  // scalars into segment s's region (`warp_shared` the warp's first): M^-1 and the products with
+  // it go out from where they are, not copied to a staging area first (ncu, run 68: the copies'
+  // shared-memory wavefronts, a third of them bank conflicts). Returns the segments (bit s) with a
+  // value that is not finite in IO (out of its range, infinite or NaN). out == nullptr: nothing.
+  template <class S, class IO>
+  RBDGRAD_HD unsigned write_warp_matrix(const S* warp_shared, int offset, S sign, IO* out, int n) const {
+    return write_matrices_part<W>(warp_shared, shared_stride, offset, sign, out, n, first_state, states_in_warp,
+                                  segment * W + lane, 32);
+  }
+  // the bitwise or of `bits` over the warp's lanes
+  RBDGRAD_HD unsigned or_warp(unsigned bits) const {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+    return __reduce_or_sync(0xffffffffu, bits);
+#elif defined(__CUDA_ARCH__)
+    for (int d = 16; d > 0; d /= 2) bits |= __shfl_xor_sync(0xffffffffu, bits, d);
+    return bits;
+#else
+    return bits;
+#endif
+  }
   // B = A B for the state of every segment of the warp, A and B W x W row-major in shared memory
   // at the same offsets in each segment's region (shared_stride scalars apart, both 16-byte
   // aligned). Every lane of the warp calls it, after writing its part of B, and reads the product
@@ -127,20 +220,75 @@ struct WarpLanes {
     lane_column_product<W>(A, B, lane);  // a column per lane
 #endif
   }
+  // The rows that the columns of this lane's tensor-core fragments keep (column 8 tj + 2 (t % 4) + e
+  // of a segment's W x W, t the lane in the warp), and those of its own column.
+  struct Tree {
+    TreeRows mine;
+    unsigned up[W / 8][2], down[W / 8][2];
+  };
+  // keep: what this lane's joint's column keeps (the same for every segment: one robot)
+  RBDGRAD_HD Tree tree(TreeRows keep) const {
+    Tree tree;
+    tree.mine = keep;
+    const int quad = (segment * W + lane) & 3;
+    for (int tj = 0; tj < W / 8; ++tj)
+      for (int e = 0; e < 2; ++e) {
+        tree.up[tj][e] = shfl(keep.up, 8 * tj + 2 * quad + e);
+        tree.down[tj][e] = shfl(keep.down, 8 * tj + 2 * quad + e);
+      }
+    return tree;
+  }
+  // out(r, n) = up(r, n) ? sum of the Up terms : down(r, n) ? sum of the Down terms : 0 (W x W,
+  // row-major, 16-byte aligned) for the state of every segment of the warp, `rows` and `out` at
+  // the same offsets in each segment's region. Every lane of the warp calls it after writing its
+  // row; out is complete when it returns. On the GPU the FP64 tensor cores take each term as two
+  // mma steps (k = 0..3, then 4..5 and two zeros), where a lane's own column took its W rows'
+  // loads and dot products both ways (up and down) and kept one.
+  template <class... Up, class... Down, class S>
+  RBDGRAD_HD void tree_product(RowTerms<Up...> up, RowTerms<Down...> down, const Tree& tree, const S* rows,
+                               int stride, S* out) const {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+    static_assert(sizeof(S) == sizeof(double), "the warp kernel computes in f64");
+    (void)up;
+    (void)down;
+    constexpr int kTiles = W / 8;
+    const int t = segment * W + lane, row = t >> 2, quad = t & 3;
+    double c[kSegments][kTiles][kTiles][2];
+    __syncwarp();  // the rows written
+    for (int s = 0; s < kSegments; ++s) {
+      const int shift = (s - segment) * shared_stride;
+      for (int ti = 0; ti < kTiles; ++ti)
+        for (int tj = 0; tj < kTiles; ++tj) {
+          // A(r, k) = rows[r][a + k] and B(k, n) = rows[n][b + k]: lane t reads row t / 4 of both
+          const double* a_row = rows + shift + (8 * ti + row) * stride;
+          const double* b_row = rows + shift + (8 * tj + row) * stride;
+          double u[2] = {0.0, 0.0}, d[2] = {0.0, 0.0};
+          (mma_term<Up>(u, a_row, b_row, quad), ...);
+          (mma_term<Down>(d, a_row, b_row, quad), ...);
+          const int r = 8 * ti + row;
+          for (int e = 0; e < 2; ++e)
+            c[s][ti][tj][e] = (tree.up[tj][e] >> r & 1u) ? u[e] : (tree.down[tj][e] >> r & 1u) ? d[e] : 0.0;
+        }
+    }
+    for (int s = 0; s < kSegments; ++s) {
+      const int shift = (s - segment) * shared_stride;
+      for (int ti = 0; ti < kTiles; ++ti)
+        for (int tj = 0; tj < kTiles; ++tj) {
+          double2* to = reinterpret_cast<double2*>(out + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
+          *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
+        }
+    }
+    __syncwarp();
+#else
+    sync();
+    lane_tree_column<W>(up, down, rows, stride, tree.mine, out, lane);
+    sync();
+#endif
+  }
   // the end of a stage (measurement builds only)
   RBDGRAD_HD void stamp() const {
 #if defined(__CUDA_ARCH__) && defined(RBDGRAD_BLOCK_PASS_TIMING)
     if (clocks != nullptr && lane == 0 && stage < kMaxStageClocks) clocks[stage++] = clock64();
-#endif
-  }
-  // whether p holds on any lane of this segment
-  RBDGRAD_HD bool any(bool p) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned bits = __ballot_sync(0xffffffffu, p);
-    const unsigned mask = ((1u << W) - 1u) << (segment * W);
-    return (bits & mask) != 0;
-#else
-    return p;
 #endif
   }
 };

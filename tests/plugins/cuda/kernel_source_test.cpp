@@ -86,12 +86,13 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   EXPECT_THAT(cuda::block_kernel_program(odd, cuda::KernelScalars::kF64, 90).source, ::testing::Not(HasSubstr("\n#error")));
 }
 
-// The warp kernel's program: the robot's sizes fixed, one name per entry point (WarpEntry's
-// order), f32 batches' after f64's.
+// The warp kernel's program: the robot's sizes and tree fixed (parent + 1 and subtree end - 1, 4
+// bits a joint: iiwa14 is a chain), one name per entry point (WarpEntry's order), f32 batches'
+// after f64's.
 TEST(KernelSource, WarpProgramNamesEveryEntryPoint) {
   const Model model = load_embedded("iiwa14");
   const cuda::NvrtcProgram f64 = cuda::warp_kernel_program(model, false, 90);
-  const std::string head = "<8, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, ";
+  const std::string head = "<8, rbdgrad::cuda::FixedTreeModelView<double, 7, 7, 0x6543210ull, 0x6666666ull>, ";
   EXPECT_THAT(f64.name_expressions,
               ::testing::ElementsAre("rbdgrad::cuda::warp_fused_kernel" + head + "double, false>",
                                      "rbdgrad::cuda::warp_fused_kernel" + head + "double, true>",
@@ -104,7 +105,8 @@ TEST(KernelSource, WarpProgramNamesEveryEntryPoint) {
   EXPECT_EQ(both.name_expressions[cuda::kWarpEntries + 1], "rbdgrad::cuda::warp_fused_kernel" + head + "float, true>");
   const Model hyq = load_embedded("hyq");
   EXPECT_THAT(cuda::warp_kernel_program(hyq, false, 90).name_expressions[0],
-              HasSubstr("<16, rbdgrad::cuda::FixedSizeModelView<double, 12, " + std::to_string(hyq.max_depth()) + ">"));
+              HasSubstr("<16, rbdgrad::cuda::FixedTreeModelView<double, 12, " + std::to_string(hyq.max_depth()) +
+                        ", 0xba0870540210ull, 0xbbb888555222ull>"));
   EXPECT_NE(cuda::kernel_cache_key(f64, "13.0"), cuda::kernel_cache_key(both, "13.0"));
 }
 
@@ -161,9 +163,11 @@ TEST(KernelSource, SceneStagesCompileToLessCode) {
       ASSERT_TRUE(s.is_ok()) << cuda::block_stages_text(stages) << ": " << s.message();
       if (scalars != cuda::KernelScalars::kF64) continue;
       std::printf("iiwa14 f64, %s: cubin %zu bytes\n", cuda::block_stages_text(stages).c_str(), out.cubin.size());
-      if (stages == st::kPerBatch) per_batch_bytes = out.cubin.size();
-      else if (stages != (st::kDq | st::kDqd))
+      if (stages == st::kPerBatch) {
+        per_batch_bytes = out.cubin.size();
+      } else if (stages != (st::kDq | st::kDqd)) {
         EXPECT_LT(out.cubin.size(), per_batch_bytes) << cuda::block_stages_text(stages);
+      }
     }
   }
 }

@@ -64,18 +64,31 @@ struct HostLanes {
     cuda::lane_column_product<W>(A, B, lane);
     sync();
   }
-  void stamp() const {}
-  bool any(bool p) const {
-    warp->slots[slot(lane)] = p ? 1.0 : 0.0;
-    warp->barrier.arrive_and_wait();
-    bool found = false;
-    for (int l = 0; l < W; ++l) found = found || warp->slots[slot(l)] != 0.0;
-    warp->barrier.arrive_and_wait();
-    return found;
+  // each lane its own column, between barriers
+  cuda::TreeRows tree(cuda::TreeRows keep) const { return keep; }
+  template <class Up, class Down, class S>
+  void tree_product(Up up, Down down, cuda::TreeRows keep, const S* rows, int stride, S* out) const {
+    sync();
+    cuda::lane_tree_column<W>(up, down, rows, stride, keep, out, lane);
+    sync();
   }
+  void stamp() const {}
   template <class S>
   S* warp_shared(S* region) const {
     return region - segment * shared_stride;
+  }
+  template <class S, class IO>
+  unsigned write_warp_matrix(const S* warp_shared, int offset, S sign, IO* out, int n) const {
+    return cuda::write_matrices_part<W>(warp_shared, shared_stride, offset, sign, out, n, first_state,
+                                        states_in_warp, static_cast<int>(slot(lane)), W * Segments);
+  }
+  unsigned or_warp(unsigned bits) const {
+    warp->slots[slot(lane)] = static_cast<double>(bits);
+    warp->barrier.arrive_and_wait();
+    unsigned all = 0;
+    for (int t = 0; t < W * Segments; ++t) all |= static_cast<unsigned>(warp->slots[static_cast<std::size_t>(t)]);
+    warp->barrier.arrive_and_wait();
+    return all;
   }
   template <class S, class IO>
   void write_warp(const S* staged, IO* out, int count) const {
@@ -190,8 +203,31 @@ TEST(WarpStateOnHost, WholeWarpsWriteEachStatesOutputs) {
   }
 }
 
-// The code the kernel compiled for the robot runs (the joint count and depth as constants: fixed
-// loop trip counts) on iiwa14, a chain, and hyq, four legs of three: the same results.
+// The model types of the kernel compiled for iiwa14, a chain, and hyq, four legs of three: the
+// sizes and the tree as constants (kernel_source.cpp writes them; kernel_source_test.cpp checks
+// the same constants).
+using IiwaTree = cuda::FixedTreeModelView<double, 7, 7, 0x6543210ull, 0x6666666ull>;
+using HyqTree = cuda::FixedTreeModelView<double, 12, 3, 0xba0870540210ull, 0xbbb888555222ull>;
+
+TEST(WarpStateOnHost, FixedTreeIsTheModelsTree) {
+  const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq");
+  const cuda::FlatModel<double> iiwa_flat(iiwa), hyq_flat(hyq);
+  const IiwaTree iiwa_view(iiwa_flat.host_view());
+  const HyqTree hyq_view(hyq_flat.host_view());
+  static_assert(cuda::FixedTree<IiwaTree>::known && !cuda::FixedTree<cuda::ModelView<double>>::known);
+  for (int i = 0; i < iiwa.nv; ++i) {
+    EXPECT_EQ(cuda::FixedTree<IiwaTree>::parent(iiwa_view, i), iiwa.parent[i]) << i;
+    EXPECT_EQ(cuda::FixedTree<IiwaTree>::subtree_end(iiwa_view, i), iiwa.subtree_end[i]) << i;
+  }
+  static_assert(cuda::FixedTree<IiwaTree>::max_descendants() == 6 && cuda::FixedTree<HyqTree>::max_descendants() == 2);
+  for (int i = 0; i < hyq.nv; ++i) {
+    EXPECT_EQ(cuda::FixedTree<HyqTree>::parent(hyq_view, i), hyq.parent[i]) << i;
+    EXPECT_EQ(cuda::FixedTree<HyqTree>::subtree_end(hyq_view, i), hyq.subtree_end[i]) << i;
+  }
+}
+
+// The code the kernel compiled for the robot runs (the joint count, depth and tree as constants:
+// fixed loop trip counts, no loads of the tree) on iiwa14 and hyq: the same results.
 TEST(WarpStateOnHost, RobotSizedCodeMatchesCore) {
   const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq");
   ASSERT_EQ(iiwa.nv, 7);
@@ -206,8 +242,8 @@ TEST(WarpStateOnHost, RobotSizedCodeMatchesCore) {
       a.poison();
       const std::vector<std::uint32_t> status =
           model == &iiwa
-              ? run_warps_on_host<8, 4, double, cuda::FixedSizeModelView<double, 7, 7>>(*model, a, c, true, early)
-              : run_warps_on_host<16, 2, double, cuda::FixedSizeModelView<double, 12, 3>>(*model, a, c, true, early);
+              ? run_warps_on_host<8, 4, double, IiwaTree>(*model, a, c, true, early)
+              : run_warps_on_host<16, 2, double, HyqTree>(*model, a, c, true, early);
       const std::string where = model->name + (early ? ", early outputs" : "");
       for (std::size_t k = 0; k < states.size(); ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
       const Comparison cmp = compare_with_core(*model, a, c, true);
@@ -245,23 +281,32 @@ TEST(WarpStateOnHost, FailingStatesHaveTheBlockKernelsStatus) {
   const int last = model.nv - 1;
   model.mass[static_cast<std::size_t>(last)] = 0;
   model.inertia_com[static_cast<std::size_t>(last)].setZero();
-  for (const Model& m : {robot_model("iiwa14"), model}) {
-    const OutputCase& c = kBlockCases[1];
-    CudaBatch<double> warp(states, m.nv, true), block(states, m.nv, true);
-    const std::vector<std::uint32_t> status = run_warp(m, warp, c, true, &m == &model);
-    const cuda::FlatModel<double> flat(m);
-    const cuda::ModelView<double> view(flat.host_view());
-    std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(m.nv, false), 0.0);
-    const cuda::BlockWorkspace<double> w(shared.data(), m.nv, false);
-    cuda::BatchPointers<double> b = block.pointers(c, true);
-    std::vector<std::uint32_t> expected(states.size(), 0xffffffffu);
-    b.status = expected.data();
-    for (std::size_t k = 0; k < states.size(); ++k) {
-      cuda::block_load_inputs(m.nv, w, b, k, cuda::ThreadGroup{});
-      cuda::block_evaluate_state(view, w, b, k, true, cuda::ThreadGroup{});
+  const Model plain = robot_model("iiwa14");
+  // one state a segment, and the three in one warp (a failing state flags only its own)
+  for (const bool full_warps : {false, true}) {
+    for (const Model* m : {&plain, static_cast<const Model*>(&model)}) {
+      const bool zero_mass = m == &model;
+      const OutputCase& c = kBlockCases[1];
+      CudaBatch<double> warp(states, m->nv, true), block(states, m->nv, true);
+      const std::vector<std::uint32_t> status = run_warp(*m, warp, c, true, zero_mass, full_warps);
+      const cuda::FlatModel<double> flat(*m);
+      const cuda::ModelView<double> view(flat.host_view());
+      std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(m->nv, false), 0.0);
+      const cuda::BlockWorkspace<double> w(shared.data(), m->nv, false);
+      cuda::BatchPointers<double> b = block.pointers(c, true);
+      std::vector<std::uint32_t> expected(states.size(), 0xffffffffu);
+      b.status = expected.data();
+      for (std::size_t k = 0; k < states.size(); ++k) {
+        cuda::block_load_inputs(m->nv, w, b, k, cuda::ThreadGroup{});
+        cuda::block_evaluate_state(view, w, b, k, true, cuda::ThreadGroup{});
+      }
+      const std::string where = std::string(zero_mass ? "zero mass" : "NaN velocity") + (full_warps ? ", whole warps" : "");
+      EXPECT_NE(expected[1], 0u) << where;
+      if (!zero_mass) {
+        EXPECT_EQ(expected[0], 0u) << where;  // the NaN flags its own state only
+      }
+      EXPECT_EQ(status, expected) << where;
     }
-    EXPECT_NE(expected[1], 0u);
-    EXPECT_EQ(status, expected) << (&m == &model ? "zero mass" : "NaN velocity");
   }
 }
 
