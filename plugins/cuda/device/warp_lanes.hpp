@@ -150,6 +150,23 @@ struct WarpLanes {
     }
   }
 #endif
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
+  // Every segment's W x W result at `out` (16-byte aligned, the same offset in each segment's
+  // region) from this lane's mma fragments c[s][ti][tj] (C(t / 4, 2 (t % 4)) with its right
+  // neighbour of tile (ti, tj)), one 16-byte store each; then the warp's barrier.
+  __device__ void store_fragments(const double (&c)[kSegments][W / 8][W / 8][2], double* out) const {
+    const int t = segment * W + lane, row = t >> 2, quad = t & 3;
+    for (int s = 0; s < kSegments; ++s) {
+      const int shift = (s - segment) * shared_stride;
+      for (int ti = 0; ti < W / 8; ++ti)
+        for (int tj = 0; tj < W / 8; ++tj) {
+          double2* to = reinterpret_cast<double2*>(out + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
+          *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
+        }
+    }
+    __syncwarp();
+  }
+#endif
   // Writes sign m_s(r, c), r, c < n, of the warp's states to out + first_state n^2, consecutive
   // lanes at consecutive addresses (whole lines of memory), m_s W x W row-major at `offset`
   // scalars into segment s's region (`warp_shared` the warp's first): M^-1 and the products with
@@ -207,15 +224,7 @@ struct WarpLanes {
         }
     }
     __syncwarp();  // every lane's part of B read before the products replace it
-    for (int s = 0; s < kSegments; ++s) {
-      const int shift = (s - segment) * shared_stride;
-      for (int ti = 0; ti < kTiles; ++ti)
-        for (int tj = 0; tj < kTiles; ++tj) {
-          double2* to = reinterpret_cast<double2*>(B + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
-          *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
-        }
-    }
-    __syncwarp();
+    store_fragments(c, B);
 #else
     lane_column_product<W>(A, B, lane);  // a column per lane
 #endif
@@ -270,15 +279,7 @@ struct WarpLanes {
             c[s][ti][tj][e] = (tree.up[tj][e] >> r & 1u) ? u[e] : (tree.down[tj][e] >> r & 1u) ? d[e] : 0.0;
         }
     }
-    for (int s = 0; s < kSegments; ++s) {
-      const int shift = (s - segment) * shared_stride;
-      for (int ti = 0; ti < kTiles; ++ti)
-        for (int tj = 0; tj < kTiles; ++tj) {
-          double2* to = reinterpret_cast<double2*>(out + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
-          *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
-        }
-    }
-    __syncwarp();
+    store_fragments(c, out);
 #else
     sync();
     lane_tree_column<W>(up, down, rows, stride, tree.mine, out, lane);
