@@ -323,17 +323,17 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     qd = static_cast<S>(b.qd[state * vec + i]);
     u = static_cast<S>(b.u[state * vec + i]);
   }
-  using Tree = FixedTree<Model>;
+  using Topology = FixedTree<Model>;  // the tree where the model type fixes it
   // the subtree sums read every row where that takes at most twice the reads of the joint with
   // the most descendants (a chain: as many), else each lane its descendants' (warp::subtree_sum)
-  constexpr int kSubtreeRows = Tree::known && kFixedNv - 1 <= 2 * Tree::max_descendants() ? kFixedNv : 0;
-  const int parent = joint ? Tree::parent(m, i) : -1;
-  const int end = joint ? Tree::subtree_end(m, i) : i + 1;
-  const warp::Jumps jumps = Tree::known ? warp::tree_jumps(m, parent, levels) : warp::jumps(parent, levels, g);
+  constexpr int kSubtreeRows = Topology::known && kFixedNv - 1 <= 2 * Topology::max_descendants() ? kFixedNv : 0;
+  const int parent = joint ? Topology::parent(m, i) : -1;
+  const int end = joint ? Topology::subtree_end(m, i) : i + 1;
+  const warp::Jumps jumps = Topology::known ? warp::tree_jumps(m, parent, levels) : warp::jumps(parent, levels, g);
   // ancestors-or-self of this joint (bit r: joint r), the up rows of its columns
   unsigned ancestors = 0;
   for (int r = 0; r < kRows; ++r) {
-    const int end_r = Tree::known ? Tree::subtree_end(m, r) : g.shfl(end, r);
+    const int end_r = Topology::known ? Topology::subtree_end(m, r) : g.shfl(end, r);
     if (r <= i && i < end_r) ancestors |= 1u << r;
   }
 
