@@ -81,14 +81,10 @@ NvrtcProgram warp_kernel_program(const Model& model, bool f32_batches, int arch)
              ".\n#include \"warp_kernel_entry.hpp\"\n";
   p.headers.assign(kEmbeddedDeviceHeaders, kEmbeddedDeviceHeaders + kEmbeddedDeviceHeaderCount);
   p.options = compile_options(arch);
-  // the tree as FixedTreeModelView packs it: parent + 1 and subtree end - 1, 4 bits a joint
-  unsigned long long parents = 0, ends = 0;
-  for (int i = 0; i < model.nv; ++i) {
-    parents |= static_cast<unsigned long long>(model.parent[i] + 1) << (4 * i);
-    ends |= static_cast<unsigned long long>(model.subtree_end[i] - 1) << (4 * i);
-  }
-  const std::string fixed = "rbdgrad::cuda::FixedTreeModelView<double, " + nv + ", " + levels + ", " +
-                            hex_constant(parents) + ", " + hex_constant(ends) + ">";
+  const std::string fixed =
+      "rbdgrad::cuda::FixedTreeModelView<double, " + nv + ", " + levels + ", " +
+      hex_constant(pack_tree_nibbles(model.parent.data(), model.nv, kParentBias)) + ", " +
+      hex_constant(pack_tree_nibbles(model.subtree_end.data(), model.nv, kSubtreeEndBias)) + ">";
   for (const char* io : {"double", "float"}) {
     if (std::string(io) == "float" && !f32_batches) break;
     // in WarpEntry's order

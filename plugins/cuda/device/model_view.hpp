@@ -57,6 +57,21 @@ struct FixedSizeModelView : ModelView<S> {
 // that a lane has its joint's without a load from device memory, which the first shuffles waited
 // for (ncu, run 68: 6% of the kernel's stall samples at 65536 states).
 template <class S, int NV, int LEVELS, unsigned long long PARENTS, unsigned long long SUBTREE_ENDS>
+struct FixedTreeModelView;
+
+// FixedTreeModelView's packing: value + bias in 4 bits a joint (parents: bias 1, subtree ends:
+// bias -1), written by the host for the generated source and read by the kernel.
+RBDGRAD_HD constexpr unsigned long long pack_tree_nibbles(const int* values, int nv, int bias) {
+  unsigned long long packed = 0;
+  for (int i = 0; i < nv; ++i) packed |= static_cast<unsigned long long>(values[i] + bias) << (4 * i);
+  return packed;
+}
+RBDGRAD_HD constexpr int unpack_tree_nibble(unsigned long long packed, int i, int bias) {
+  return static_cast<int>(packed >> (4 * i) & 15u) - bias;
+}
+inline constexpr int kParentBias = 1, kSubtreeEndBias = -1;
+
+template <class S, int NV, int LEVELS, unsigned long long PARENTS, unsigned long long SUBTREE_ENDS>
 struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
   static_assert(NV <= 16, "4 bits a joint");
   RBDGRAD_HD explicit FixedTreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS>(view) {}
@@ -88,13 +103,13 @@ template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long 
 struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
   using Model = FixedTreeModelView<S, NV, LEVELS, P, E>;
   static constexpr bool known = true;
-  static RBDGRAD_HD constexpr int parent(const Model&, int i) { return static_cast<int>(P >> (4 * i) & 15u) - 1; }
-  static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return static_cast<int>(E >> (4 * i) & 15u) + 1; }
+  static RBDGRAD_HD constexpr int parent(const Model&, int i) { return unpack_tree_nibble(P, i, kParentBias); }
+  static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return unpack_tree_nibble(E, i, kSubtreeEndBias); }
   // the most descendants of a joint (NV - 1 for a chain)
   static RBDGRAD_HD constexpr int max_descendants() {
     int most = 0;
     for (int i = 0; i < NV; ++i) {
-      const int d = static_cast<int>(E >> (4 * i) & 15u) - i;
+      const int d = unpack_tree_nibble(E, i, kSubtreeEndBias) - 1 - i;
       most = d > most ? d : most;
     }
     return most;

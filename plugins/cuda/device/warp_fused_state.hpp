@@ -276,13 +276,6 @@ RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
 // kUp: E, then Dq; kDown: 2 alpha, then beta; f_qdd's subtree sum at kFqdd before Dq goes there.
 enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18, kUp = 18, kDown = 24, kAlpha = 30 };
 
-template <class S>
-RBDGRAD_HD Vec6<S> load(const S* from) {
-  Vec6<S> x;
-  for (int k = 0; k < 6; k += 2) load_pair(from + k, x.v[k], x.v[k + 1]);
-  return x;
-}
-
 }  // namespace warp
 
 // Computes `state` of b (warp_kernel_supports(b, m.nv)) on the segment g (W lanes, m.nv <= W) and
@@ -300,8 +293,8 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   using warp::Inertia;
   constexpr int kFixedNv = FixedSizes<Model>::nv;
   static_assert(kFixedNv <= W, "a segment holds every joint");
-  // the rows of the columns that can hold values: the joints where their count is fixed (the
-  // rest of the W rows are zero and skipped), else all W
+  // the rows that can hold values (ancestor masks, exchange steps): the joints where their count
+  // is fixed (the rest of the W rows are zero and skipped), else all W
   constexpr int kRows = kFixedNv > 0 ? kFixedNv : W;
   const int n = kFixedNv > 0 ? kFixedNv : m.nv, i = g.lane;
   const int levels = FixedSizes<Model>::levels > 0 ? FixedSizes<Model>::levels : m.levels;
@@ -550,18 +543,19 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   // d tau/d q (large batches gain); otherwise everything goes at the end (host memory over PCIe in
   // the middle of the kernel costs a small batch's state more than it saves).
   S* const warp_sh = g.warp_shared(sh);
+  S* const staged_qdd = warp_sh + Lanes::kSegments * g.shared_stride;  // after the warp's regions
   unsigned bad_states = 0;  // bit s: segment s's state (write_warp_matrix)
   bool bad = false;         // this lane's qdd
   {
     const IO y = static_cast<IO>(qdd);
     bad = joint && !is_finite(y);
-    if (joint) (warp_sh + Lanes::kSegments * g.shared_stride)[g.segment * n + i] = static_cast<S>(y);
+    if (joint) staged_qdd[g.segment * n + i] = static_cast<S>(y);
   }
   // -M^-1 d tau/d qd: the product in place of its right factor, negated on its way out
   if (want_dqd) g.product(minv_rows, sh + WarpShared<W>::kProductDqd);
   const auto write_qdd_dqd = [&] {
     g.sync();
-    g.write_warp(warp_sh + Lanes::kSegments * g.shared_stride, b.out[output_index(kOutputQdd)], n);
+    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
     if (want_dqd)
       bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kProductDqd, S(-1),
                                         b.out[output_index(kOutputDqddDqd)], n);
