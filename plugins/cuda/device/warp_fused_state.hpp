@@ -17,8 +17,8 @@
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
 //   a state fails at the same joint for the same reason;
 // - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
-// - the outputs written from shared memory (M^-1 and the products where they are computed, qdd
-//   staged), a warp's states one after the other, by the whole warp as whole lines.
+// - the outputs staged in shared memory, a warp's states one after the other, and written by the
+//   whole warp as whole lines.
 // It computes in f64 (S = double: the GPUs whose f64 is fast, where f32 batches run in f64 as
 // well); f32 batches elsewhere take the block kernel.
 #pragma once
@@ -38,39 +38,41 @@ inline constexpr int kMaxWarpNv = 16;
 RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <= 16 ? 16 : 0; }
 
 // Shared memory of a warp: its segments' regions one after the other, kScalars each, then
-// kStagedQdd per segment for qdd on its way out.
+// kEarlyOutputs per segment for qdd and -M^-1 d tau/d qd on their way out early.
 // A state's region: W rows of kRowStride (the subtree sums' terms, then the joint vectors that the
-// products of rows read, six of them for d tau/d q's), M^-1 (W x W, row-major), tau - c, and the
-// right factors of the products with M^-1 for d tau/d qd and d tau/d q, replaced by the products
-// (the W x W blocks 16-byte aligned, for the products' paired stores). M^-1 and the products go
-// out from there (WarpLanes::write_warp_matrix). The rows are read and written 16 bytes at a time
-// (warp::load_pair): the row stride, 38 doubles, keeps them 16-byte aligned and puts rows 12 banks
-// apart, so that the 8 lanes of a quarter warp, each reading 16 bytes of its own row, cover the
-// 32 banks once, and the tensor-core steps' loads (8 rows, 32 bytes of each) take the two
-// wavefronts of their 256 bytes; the regions are padded so that the segments of a warp start
-// 32 / kSegments banks apart: the segments' reads of the same row (the subtree sums) then hit
-// different banks (without the padding, 48% of the kernel's shared-memory wavefronts were bank
-// conflicts, ncu, run 49).
+// products of rows read, six of them for d tau/d q's), M^-1, and the right factor of a product
+// with M^-1, replaced by the product (W x W blocks, rows kBlockStride apart, 16-byte aligned for
+// the products' paired stores). At the end the warp's regions stage its last outputs.
+// The rows are read and written 16 bytes at a time (warp::load_pair): the row stride, 38 doubles,
+// keeps them 16-byte aligned and puts rows 12 banks apart, so that a segment's lanes, each writing
+// 16 bytes of its own row, cover the 32 banks once; in the tree products' joint order (tree_slot)
+// a half warp's tensor-core loads (4 rows, 32 bytes of each) take their 2 wavefronts. The regions
+// are padded so that the segments of a warp start 16 banks apart modulo 32: the two segments of
+// a half warp then read and write the same places of their regions on different banks (without
+// the padding, 48% of the kernel's shared-memory wavefronts were bank conflicts, ncu, run 49;
+// 8 banks apart took twice the wavefronts of M^-1's columns, run 72).
 template <int W>
 struct WarpShared {
   static constexpr int kSegments = 32 / W;
   static constexpr int kRowStride = 38;
   static constexpr int kMinv = W * kRowStride;
-  static constexpr int kDiff = kMinv + W * W;
-  // the products with M^-1: their right factors (W x W, row-major), replaced by the results
-  static constexpr int kProductDqd = kDiff + W;
-  static constexpr int kProductDq = kProductDqd + W * W;
-  static constexpr int kUsed = kProductDq + W * W;
+  // a product with M^-1: its right factor, replaced by the result (d tau/d qd's, read out into the
+  // lanes, then d tau/d q's)
+  static constexpr int kProduct = kMinv + W * kBlockStride<W>;
+  static constexpr int kUsed = kProduct + W * kBlockStride<W>;
   // doubles (two banks each) between segments, modulo the 16 doubles of a row of banks
-  static constexpr int kSegmentShift = 16 / kSegments;
+  static constexpr int kSegmentShift = 8;
   static constexpr int kScalars = kUsed + (kSegmentShift - kUsed % 16 + 16) % 16;
-  static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 32 / kSegments banks apart");
-  static_assert(kRowStride % 2 == 0 && kMinv % 2 == 0 && kProductDqd % 2 == 0 && kProductDq % 2 == 0 &&
+  static_assert(kScalars % 16 == kSegmentShift, "the segments' regions start 16 banks apart modulo 32");
+  static_assert(kRowStride % 2 == 0 && kMinv % 2 == 0 && kProduct % 2 == 0 &&
                     kScalars % 2 == 0,
                 "rows and W x W blocks start 16 bytes apart");
-  static constexpr int kStagedQdd = W;
+  static_assert(kRowStride % 4 == 2, "the tree products' joint order (tree_slot) spreads a half warp's rows over the banks");
+  static_assert(W + 3 * W * W <= kScalars, "a state's region holds its last outputs");
+  // qdd and -M^-1 d tau/d qd on their way out early
+  static constexpr int kEarlyOutputs = W + W * W;
   // scalars of a warp of `segments` segments
-  static RBDGRAD_HD constexpr int warp_scalars(int segments) { return segments * (kScalars + kStagedQdd); }
+  static RBDGRAD_HD constexpr int warp_scalars(int segments) { return segments * (kScalars + kEarlyOutputs); }
 };
 
 // The warp kernel takes what the block kernel takes, in f64, up to kMaxWarpNv joints.
@@ -305,9 +307,9 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
   const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
   constexpr int kStride = WarpShared<W>::kRowStride;
+  constexpr int kBlock = kBlockStride<W>;
   S* const rows = sh;
   S* const minv_rows = sh + WarpShared<W>::kMinv;
-  S* const diff = sh + WarpShared<W>::kDiff;
 
   // the inputs, then the robot's constants (their loads overlap)
   S q = S(0), qd = S(0), u = S(0);
@@ -357,9 +359,18 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     if (round >= jumps.rounds) break;
     const int at = jumps.to[round];
     const int from = at < 0 ? i : at;
+    // the ancestor's rotation by its first two columns (the third their cross product: a third
+    // fewer shuffles)
     S Ra[9], pa[3];
-    for (int e = 0; e < 9; ++e) Ra[e] = g.shfl(R[e], from);
-    for (int r = 0; r < 3; ++r) pa[r] = g.shfl(p[r], from);
+    for (int r = 0; r < 3; ++r) {
+      Ra[3 * r] = g.shfl(R[3 * r], from);
+      Ra[3 * r + 1] = g.shfl(R[3 * r + 1], from);
+      pa[r] = g.shfl(p[r], from);
+    }
+    for (int r = 0; r < 3; ++r) {
+      const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
+      Ra[3 * r + 2] = Ra[3 * r1] * Ra[3 * r2 + 1] - Ra[3 * r2] * Ra[3 * r1 + 1];
+    }
     if (at >= 0) {
       S Rn[9], pn[3];
       for (int r = 0; r < 3; ++r) {
@@ -491,19 +502,20 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   if (!minv_supplied) {
     g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<RowTerm<Column::kIcS, Column::kAxis>>{},
                    tree, rows, kStride, minv_rows);
-    for (int r = 0; r < W; ++r) col[r] = minv_rows[r * W + i];
+    for (int r = 0; r < W; ++r) col[r] = minv_rows[tree_slot(r) * kBlock + tree_slot(i)];
   }
   if (want_dqd)
     g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
                    RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAxis>>{}, tree,
-                   rows, kStride, sh + WarpShared<W>::kProductDqd);
+                   rows, kStride, sh + WarpShared<W>::kProduct);
 
   g.stamp();  // columns of M and d tau/d qd
   // M^-1: the caller's, or by exchange steps on the columns (leaves first, as the block kernel);
   // the pivots are checked after the steps, in pivot order
   std::uint32_t status = 0;
   if (minv_supplied) {
-    for (int r = 0; r < W; ++r) col[r] = joint && r < n ? static_cast<S>(b.minv[state * mat + r * vec + i]) : S(0);
+    // row i of the caller's M^-1 (for qdd's row; it goes to shared memory as that row)
+    for (int r = 0; r < W; ++r) col[r] = joint && r < n ? static_cast<S>(b.minv[state * mat + i * vec + r]) : S(0);
   } else {
     for (int pv = W - 1; pv >= 0; --pv) {
       if (pv >= n) continue;
@@ -525,42 +537,54 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
       }
     }
   }
-  for (int r = 0; r < W; ++r) minv_rows[r * W + i] = col[r];
-  diff[i] = u - c_joint;
+  // M^-1 with its columns in tree_slot order, as the products with it take it (WarpLanes::product)
+  for (int r = 0; r < W; ++r)
+    minv_rows[minv_supplied ? i * kBlock + tree_slot(r) : r * kBlock + tree_slot(i)] = col[r];
   g.sync();
   g.stamp();  // M^-1
-  // qdd = M^-1 (tau - c), row i
+  // qdd = M^-1 (tau - c), row i: the caller's row, or the computed column i (M^-1 is symmetric;
+  // the exchange steps' roundings aside, row and column are the same), tau - c from the lanes
   S qdd = u;
   if (b.tau_input) {
+    const S diff = u - c_joint;
     qdd = S(0);
-    for (int j = 0; j < n; ++j) qdd += minv_rows[i * W + j] * diff[j];
+    for (int j = 0; j < kRows; ++j) {
+      const S d_j = g.shfl(diff, j);
+      if (j < n) qdd += col[j] * d_j;
+    }
   }
 
-  // The outputs go out from shared memory, a warp's states one after the other, written by the
-  // whole warp as whole lines: qdd staged, M^-1 and the products from where they are
-  // (WarpLanes::write_warp_matrix); a value that leaves IO's range or is not finite flags the
-  // state. With early_outputs, qdd and -M^-1 d tau/d qd go out now, so that their writes overlap
+  // The outputs are staged in shared memory, a warp's states one after the other (n values or
+  // n x n, no gaps), and written by the whole warp as whole lines (WarpLanes::write_warp); a value
+  // that leaves IO's range or is not finite flags the state. With early_outputs, qdd and
+  // -M^-1 d tau/d qd go out now, from the warp's area for them, so that their writes overlap
   // d tau/d q (large batches gain); otherwise everything goes at the end (host memory over PCIe in
   // the middle of the kernel costs a small batch's state more than it saves).
-  S* const warp_sh = g.warp_shared(sh);
-  S* const staged_qdd = warp_sh + Lanes::kSegments * g.shared_stride;  // after the warp's regions
-  unsigned bad_states = 0;  // bit s: segment s's state (write_warp_matrix)
-  bool bad = false;         // this lane's qdd
-  {
-    const IO y = static_cast<IO>(qdd);
-    bad = joint && !is_finite(y);
-    if (joint) staged_qdd[g.segment * n + i] = static_cast<S>(y);
-  }
-  // -M^-1 d tau/d qd: the product in place of its right factor, negated on its way out
-  if (want_dqd) g.product(minv_rows, sh + WarpShared<W>::kProductDqd);
-  const auto write_qdd_dqd = [&] {
+  bool bad = false;  // a value of this lane's not finite in IO
+  const auto put = [&](S* to, S x) {
+    const IO y = static_cast<IO>(x);
+    bad = bad || !is_finite(y);
+    *to = static_cast<S>(y);
+  };
+  // -M^-1 x, x in a product area: the product in place, this lane's column of it back
+  const auto minv_product = [&](S* area, S(&out)[W]) {
+    g.product(minv_rows, area);
+    for (int r = 0; r < W; ++r) out[r] = -area[r * kBlock + tree_slot(i)];
+  };
+  S dqd_out[W] = {};
+  if (want_dqd) minv_product(sh + WarpShared<W>::kProduct, dqd_out);
+  const int n2 = n * n;
+  if (early_outputs) {
+    S* const staged_qdd = g.warp_shared(sh) + Lanes::kSegments * g.shared_stride;  // after the regions
+    S* const staged_dqd = staged_qdd + Lanes::kSegments * n;
+    if (joint) put(staged_qdd + g.segment * n + i, qdd);
+    if (want_dqd && joint)
+      for (int r = 0; r < W; ++r)
+        if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, dqd_out[r]);
     g.sync();
     g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
-    if (want_dqd)
-      bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kProductDqd, S(-1),
-                                        b.out[output_index(kOutputDqddDqd)], n);
-  };
-  if (early_outputs) write_qdd_dqd();
+    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  }
 
   g.stamp();  // qdd (with early_outputs, the first outputs)
   // d tau/d q: the motion due to qdd, beta, the subtree force with it, then the columns
@@ -588,19 +612,39 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     warp::store(row + Column::kAlpha, alpha);
     g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
                    RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAlpha>>{}, tree,
-                   rows, kStride, sh + WarpShared<W>::kProductDq);
+                   rows, kStride, sh + WarpShared<W>::kProduct);
   }
 
   g.stamp();  // d tau/d q
-  // the last outputs: -M^-1 d tau/d q as -M^-1 d tau/d qd above, M^-1 from its place
-  if (want_dq) g.product(minv_rows, sh + WarpShared<W>::kProductDq);
+  // the last outputs. Every segment done with its shared memory, the warp's regions (consecutive)
+  // take them.
+  S dq_out[W] = {};
+  if (want_dq) minv_product(sh + WarpShared<W>::kProduct, dq_out);
   g.sync();
-  if (want_dq)
-    bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kProductDq, S(-1), b.out[output_index(kOutputDqddDq)], n);
-  if ((b.outputs & kOutputMinv) != 0)
-    bad_states |= g.write_warp_matrix(warp_sh, WarpShared<W>::kMinv, S(1), b.out[output_index(kOutputMinv)], n);
-  if (!early_outputs) write_qdd_dqd();
-  const bool any_bad = (g.or_warp(bad_states | (bad ? 1u << g.segment : 0u)) >> g.segment & 1u) != 0;
+  S* const staged_dq = g.warp_shared(sh);
+  S* const staged_minv = staged_dq + Lanes::kSegments * n2;
+  S* const staged_dqd = staged_minv + Lanes::kSegments * n2;
+  S* const staged_qdd = staged_dqd + Lanes::kSegments * n2;
+  const bool want_minv = (b.outputs & kOutputMinv) != 0;
+  if (joint) {
+    if (!early_outputs) put(staged_qdd + g.segment * n + i, qdd);
+    for (int r = 0; r < W; ++r) {
+      if (r >= n) continue;
+      const int at = g.segment * n2 + r * n + i;  // (r, i)
+      if (want_dq) put(staged_dq + at, dq_out[r]);
+      // this lane's M^-1: column i computed, row i supplied
+      if (want_minv) put(staged_minv + (minv_supplied ? g.segment * n2 + i * n + r : at), col[r]);
+      if (want_dqd && !early_outputs) put(staged_dqd + at, dqd_out[r]);
+    }
+  }
+  g.sync();
+  if (want_dq) g.write_warp(staged_dq, b.out[output_index(kOutputDqddDq)], n2);
+  if (want_minv) g.write_warp(staged_minv, b.out[output_index(kOutputMinv)], n2);
+  if (!early_outputs) {
+    g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
+    if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
+  }
+  const bool any_bad = (g.or_warp(bad ? 1u << g.segment : 0u) >> g.segment & 1u) != 0;
   g.stamp();  // outputs
   if (i == 0 && active) {
     if (status == 0 && any_bad) status = not_finite<S>(Algorithm::kFdDerivatives);

@@ -8,7 +8,7 @@
 
 namespace rbdgrad::cuda {
 
-/// Threads per block: 64 (two warps) holds 8 or 4 states in 33 or 44 KiB of shared memory,
+/// Threads per block: 64 (two warps) holds 8 or 4 states in 36 or 47.75 KiB of shared memory,
 /// within the default limit, and lets a small batch spread over the most SMs.
 inline constexpr int kWarpKernelThreads = 64;
 /// A block's shared memory for segments of W lanes.

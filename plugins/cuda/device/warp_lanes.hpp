@@ -9,16 +9,32 @@
 
 namespace rbdgrad::cuda {
 
-// B = A B (W x W, row-major), lane `lane`'s column: its own column of B read and replaced, A only
-// read. WarpLanes::product where there are no FP64 tensor cores, and the tests' host lanes.
+// The W x W blocks in shared memory (M^-1, a product's factors) have their rows W + 4 doubles
+// apart: a half warp's tensor-core loads (4 rows, 4 consecutive doubles of each) and 16-byte
+// stores (4 rows, 8 doubles of each) then take each bank equally often, where rows W apart put
+// two of the four rows on the same banks (ncu, run 72: twice the wavefronts of the products' loads).
+template <int W>
+inline constexpr int kBlockStride = W + 4;
+
+// The order of the joints in the tree products: row and column m of a tile of 8 hold joint
+// 2 (m % 4) + m / 4 of them (even joints, then odd), so that the four rows a half warp reads in
+// a tensor-core step (m = 0..3 or 4..7), 38 doubles apart in order, are 4 doubles apart modulo
+// the banks (0, 76, 152, 228 doubles: 0, 12, 8, 4 mod 16); in order they shared banks (ncu, run
+// 72). tree_slot: where joint j is; slot_joint: the joint at slot m.
+RBDGRAD_HD constexpr int slot_joint(int m) { return (m & ~7) | (m & 3) << 1 | (m >> 2 & 1); }
+RBDGRAD_HD constexpr int tree_slot(int j) { return (j & ~7) | (j & 1) << 2 | (j >> 1 & 3); }
+
+// B = A B (W x W, rows kBlockStride apart), column `column` of B read and replaced, A only read.
+// WarpLanes::product where there are no FP64 tensor cores, and the tests' host lanes.
 template <int W, class S>
-RBDGRAD_HD void lane_column_product(const S* A, S* B, int lane) {
-  S column[W];
+RBDGRAD_HD void lane_column_product(const S* A, S* B, int column) {
+  constexpr int P = kBlockStride<W>;
+  S x[W];
   for (int r = 0; r < W; ++r) {
-    column[r] = S(0);
-    for (int k = 0; k < W; ++k) column[r] += A[r * W + k] * B[k * W + lane];
+    x[r] = S(0);
+    for (int k = 0; k < W; ++k) x[r] += A[r * P + k] * B[k * P + column];
   }
-  for (int r = 0; r < W; ++r) B[r * W + lane] = column[r];
+  for (int r = 0; r < W; ++r) B[r * P + column] = x[r];
 }
 
 // Products of the rows of a state's joints (each row a joint's vectors, `stride` scalars apart) that
@@ -45,8 +61,8 @@ RBDGRAD_HD S row_term(const S* r, const S* n) {
 }
 
 // out(r, lane) = up(r) ? sum of the Up terms : down(r) ? sum of the Down terms : 0 for r < W
-// (out W x W, row-major): a lane's own column, where there are no FP64 tensor cores, and the
-// tests' host lanes.
+// (out W x W, rows kBlockStride apart, rows and columns in tree_slot order): a lane's own column,
+// where there are no FP64 tensor cores, and the tests' host lanes.
 template <int W, class... Up, class... Down, class S>
 RBDGRAD_HD void lane_tree_column(RowTerms<Up...>, RowTerms<Down...>, const S* rows, int stride, TreeRows keep, S* out,
                                  int lane) {
@@ -56,26 +72,8 @@ RBDGRAD_HD void lane_tree_column(RowTerms<Up...>, RowTerms<Down...>, const S* ro
     S x = S(0);
     if (keep.up >> r & 1u) x = (S(0) + ... + row_term<Up>(other, mine));
     else if (keep.down >> r & 1u) x = (S(0) + ... + row_term<Down>(other, mine));
-    out[r * W + lane] = x;
+    out[tree_slot(r) * kBlockStride<W> + tree_slot(lane)] = x;
   }
-}
-
-// The part of WarpLanes::write_warp_matrix that thread `thread` of `threads` writes (the GPU's
-// lanes and the tests' host lanes alike).
-template <int W, class S, class IO>
-RBDGRAD_HD unsigned write_matrices_part(const S* warp_shared, int shared_stride, int offset, S sign, IO* out,
-                                        int n, std::uint64_t first_state, int states, int thread, int threads) {
-  if (out == nullptr) return 0;
-  const int n2 = n * n;
-  IO* to = out + first_state * static_cast<std::uint64_t>(n2);
-  unsigned bad = 0;
-  for (int e = thread; e < states * n2; e += threads) {
-    const int s = e / n2, rest = e - s * n2, r = rest / n, c = rest - r * n;
-    const IO y = static_cast<IO>(sign * warp_shared[s * shared_stride + offset + r * W + c]);
-    if (!is_finite(y)) bad |= 1u << s;
-    to[e] = y;
-  }
-  return bad;
 }
 
 template <int W>
@@ -151,33 +149,23 @@ struct WarpLanes {
   }
 #endif
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
-  // Every segment's W x W result at `out` (16-byte aligned, the same offset in each segment's
-  // region) from this lane's mma fragments c[s][ti][tj] (C(t / 4, 2 (t % 4)) with its right
-  // neighbour of tile (ti, tj)), one 16-byte store each; then the warp's barrier.
+  // Every segment's W x W result at `out` (rows kBlockStride apart, 16-byte aligned, the same
+  // offset in each segment's region) from this lane's mma fragments c[s][ti][tj] (C(t / 4,
+  // 2 (t % 4)) with its right neighbour of tile (ti, tj)), one 16-byte store each; then the warp's
+  // barrier.
   __device__ void store_fragments(const double (&c)[kSegments][W / 8][W / 8][2], double* out) const {
     const int t = segment * W + lane, row = t >> 2, quad = t & 3;
     for (int s = 0; s < kSegments; ++s) {
       const int shift = (s - segment) * shared_stride;
       for (int ti = 0; ti < W / 8; ++ti)
         for (int tj = 0; tj < W / 8; ++tj) {
-          double2* to = reinterpret_cast<double2*>(out + shift + (8 * ti + row) * W + 8 * tj + 2 * quad);
+          double2* to = reinterpret_cast<double2*>(out + shift + (8 * ti + row) * kBlockStride<W> + 8 * tj + 2 * quad);
           *to = make_double2(c[s][ti][tj][0], c[s][ti][tj][1]);
         }
     }
     __syncwarp();
   }
 #endif
-  // Writes sign m_s(r, c), r, c < n, of the warp's states to out + first_state n^2, consecutive
-  // lanes at consecutive addresses (whole lines of memory), m_s W x W row-major at `offset`
-  // scalars into segment s's region (`warp_shared` the warp's first): M^-1 and the products with
-  // it go out from where they are, not copied to a staging area first (ncu, run 68: the copies'
-  // shared-memory wavefronts, a third of them bank conflicts). Returns the segments (bit s) with a
-  // value that is not finite in IO (out of its range, infinite or NaN). out == nullptr: nothing.
-  template <class S, class IO>
-  RBDGRAD_HD unsigned write_warp_matrix(const S* warp_shared, int offset, S sign, IO* out, int n) const {
-    return write_matrices_part<W>(warp_shared, shared_stride, offset, sign, out, n, first_state, states_in_warp,
-                                  segment * W + lane, 32);
-  }
   // the bitwise or of `bits` over the warp's lanes
   RBDGRAD_HD unsigned or_warp(unsigned bits) const {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
@@ -189,9 +177,9 @@ struct WarpLanes {
     return bits;
 #endif
   }
-  // B = A B for the state of every segment of the warp, A and B W x W row-major in shared memory
-  // at the same offsets in each segment's region (shared_stride scalars apart, both 16-byte
-  // aligned). Every lane of the warp calls it, after writing its part of B, and reads the product
+  // B = A B for the state of every segment of the warp, A and B W x W in shared memory (rows
+  // kBlockStride apart) at the same offsets in each segment's region (shared_stride scalars
+  // apart, both 16-byte aligned). Every lane of the warp calls it, after writing its part of B, and reads the product
   // after it returns. On the GPU the warp's FP64 tensor-core steps (mma m8n8k4, written in PTX:
   // NVRTC has no mma.h) take each segment's product in turn, where a lane's column took W
   // dependent multiply-adds and W shared-memory reads for each of its W entries
@@ -213,8 +201,8 @@ struct WarpLanes {
         for (int tj = 0; tj < kTiles; ++tj) {
           double d0 = 0.0, d1 = 0.0;
           for (int kc = 0; kc < W / 4; ++kc) {
-            const double a = A[shift + (8 * ti + row) * W + 4 * kc + quad];
-            const double b = B[shift + (4 * kc + quad) * W + 8 * tj + row];
+            const double a = A[shift + (8 * ti + row) * kBlockStride<W> + 4 * kc + quad];
+            const double b = B[shift + (4 * kc + quad) * kBlockStride<W> + 8 * tj + row];
             asm("mma.sync.aligned.m8n8k4.row.col.f64.f64.f64.f64 {%0, %1}, {%2}, {%3}, {%0, %1};"
                 : "+d"(d0), "+d"(d1)
                 : "d"(a), "d"(b));
@@ -226,10 +214,10 @@ struct WarpLanes {
     __syncwarp();  // every lane's part of B read before the products replace it
     store_fragments(c, B);
 #else
-    lane_column_product<W>(A, B, lane);  // a column per lane
+    lane_column_product<W>(A, B, tree_slot(lane));  // a column per lane (any order)
 #endif
   }
-  // The rows that the columns of this lane's tensor-core fragments keep (column 8 tj + 2 (t % 4) + e
+  // The rows that the columns of this lane's tensor-core fragments keep (slot 8 tj + 2 (t % 4) + e
   // of a segment's W x W, t the lane in the warp), and those of its own column.
   struct Tree {
     TreeRows mine;
@@ -242,13 +230,14 @@ struct WarpLanes {
     const int quad = (segment * W + lane) & 3;
     for (int tj = 0; tj < W / 8; ++tj)
       for (int e = 0; e < 2; ++e) {
-        tree.up[tj][e] = shfl(keep.up, 8 * tj + 2 * quad + e);
-        tree.down[tj][e] = shfl(keep.down, 8 * tj + 2 * quad + e);
+        tree.up[tj][e] = shfl(keep.up, slot_joint(8 * tj + 2 * quad + e));
+        tree.down[tj][e] = shfl(keep.down, slot_joint(8 * tj + 2 * quad + e));
       }
     return tree;
   }
   // out(r, n) = up(r, n) ? sum of the Up terms : down(r, n) ? sum of the Down terms : 0 (W x W,
-  // row-major, 16-byte aligned) for the state of every segment of the warp, `rows` and `out` at
+  // rows kBlockStride apart, rows and columns in tree_slot order, 16-byte aligned) for the state
+  // of every segment of the warp, `rows` and `out` at
   // the same offsets in each segment's region. Every lane of the warp calls it after writing its
   // row; out is complete when it returns. On the GPU the FP64 tensor cores take each term as two
   // mma steps (k = 0..3, then 4..5 and two zeros), where a lane's own column took its W rows'
@@ -268,13 +257,14 @@ struct WarpLanes {
       const int shift = (s - segment) * shared_stride;
       for (int ti = 0; ti < kTiles; ++ti)
         for (int tj = 0; tj < kTiles; ++tj) {
-          // A(r, k) = rows[r][a + k] and B(k, n) = rows[n][b + k]: lane t reads row t / 4 of both
-          const double* a_row = rows + shift + (8 * ti + row) * stride;
-          const double* b_row = rows + shift + (8 * tj + row) * stride;
+          // A(r, k) = rows[r][a + k] and B(k, n) = rows[n][b + k]: lane t reads the joint at slot
+          // t / 4 of both
+          const double* a_row = rows + shift + slot_joint(8 * ti + row) * stride;
+          const double* b_row = rows + shift + slot_joint(8 * tj + row) * stride;
           double u[2] = {0.0, 0.0}, d[2] = {0.0, 0.0};
           (mma_term<Up>(u, a_row, b_row, quad), ...);
           (mma_term<Down>(d, a_row, b_row, quad), ...);
-          const int r = 8 * ti + row;
+          const int r = slot_joint(8 * ti + row);
           for (int e = 0; e < 2; ++e)
             c[s][ti][tj][e] = (tree.up[tj][e] >> r & 1u) ? u[e] : (tree.down[tj][e] >> r & 1u) ? d[e] : 0.0;
         }

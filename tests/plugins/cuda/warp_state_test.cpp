@@ -77,11 +77,6 @@ struct HostLanes {
   S* warp_shared(S* region) const {
     return region - segment * shared_stride;
   }
-  template <class S, class IO>
-  unsigned write_warp_matrix(const S* warp_shared, int offset, S sign, IO* out, int n) const {
-    return cuda::write_matrices_part<W>(warp_shared, shared_stride, offset, sign, out, n, first_state,
-                                        states_in_warp, static_cast<int>(slot(lane)), W * Segments);
-  }
   unsigned or_warp(unsigned bits) const {
     warp->slots[slot(lane)] = static_cast<double>(bits);
     warp->barrier.arrive_and_wait();
