@@ -574,13 +574,15 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   S dqd_out[W] = {};
   if (want_dqd) minv_product(sh + WarpShared<W>::kProduct, dqd_out);
   const int n2 = n * n;
+  // where (r, c) of this segment's state goes in a staging area of n x n per state
+  const auto staged_at = [&](int r, int c) { return g.segment * n2 + r * n + c; };
   if (early_outputs) {
     S* const staged_qdd = g.warp_shared(sh) + Lanes::kSegments * g.shared_stride;  // after the regions
     S* const staged_dqd = staged_qdd + Lanes::kSegments * n;
     if (joint) put(staged_qdd + g.segment * n + i, qdd);
     if (want_dqd && joint)
       for (int r = 0; r < W; ++r)
-        if (r < n) put(staged_dqd + g.segment * n2 + r * n + i, dqd_out[r]);
+        if (r < n) put(staged_dqd + staged_at(r, i), dqd_out[r]);
     g.sync();
     g.write_warp(staged_qdd, b.out[output_index(kOutputQdd)], n);
     if (want_dqd) g.write_warp(staged_dqd, b.out[output_index(kOutputDqddDqd)], n2);
@@ -630,11 +632,10 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     if (!early_outputs) put(staged_qdd + g.segment * n + i, qdd);
     for (int r = 0; r < W; ++r) {
       if (r >= n) continue;
-      const int at = g.segment * n2 + r * n + i;  // (r, i)
-      if (want_dq) put(staged_dq + at, dq_out[r]);
+      if (want_dq) put(staged_dq + staged_at(r, i), dq_out[r]);
       // this lane's M^-1: column i computed, row i supplied
-      if (want_minv) put(staged_minv + (minv_supplied ? g.segment * n2 + i * n + r : at), col[r]);
-      if (want_dqd && !early_outputs) put(staged_dqd + at, dqd_out[r]);
+      if (want_minv) put(staged_minv + (minv_supplied ? staged_at(i, r) : staged_at(r, i)), col[r]);
+      if (want_dqd && !early_outputs) put(staged_dqd + staged_at(r, i), dqd_out[r]);
     }
   }
   g.sync();
