@@ -97,7 +97,6 @@ struct FixedTree {
   static constexpr bool known = false;
   static RBDGRAD_HD int parent(const Model& m, int i) { return m.parent[i]; }
   static RBDGRAD_HD int subtree_end(const Model& m, int i) { return m.subtree_end[i]; }
-  static RBDGRAD_HD constexpr int max_descendants() { return 0; }  // not known
 };
 template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long E>
 struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
@@ -105,15 +104,6 @@ struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
   static constexpr bool known = true;
   static RBDGRAD_HD constexpr int parent(const Model&, int i) { return unpack_tree_nibble(P, i, kParentBias); }
   static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return unpack_tree_nibble(E, i, kSubtreeEndBias); }
-  // the most descendants of a joint (NV - 1 for a chain)
-  static RBDGRAD_HD constexpr int max_descendants() {
-    int most = 0;
-    for (int i = 0; i < NV; ++i) {
-      const int d = unpack_tree_nibble(E, i, kSubtreeEndBias) - 1 - i;
-      most = d > most ? d : most;
-    }
-    return most;
-  }
 };
 
 // Where each array starts, in scalars of the S block and ints of the int block.

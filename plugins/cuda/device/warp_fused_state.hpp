@@ -6,7 +6,8 @@
 //   accelerations) by pointer jumping: ceil(log2(depth)) rounds of shuffles from the 2^r-th
 //   ancestor, for any tree;
 // - the sums over a subtree (composite inertias, forces) over the contiguous index range of the
-//   subtree in depth-first order, through the state's rows of shared memory;
+//   subtree in depth-first order, through the state's rows of shared memory; where the model type
+//   fixes the tree, each lane sums a share of the terms over the whole tree instead;
 // - the body terms of the derivatives in compact form: a spatial inertia as mass, first moment and
 //   a symmetric 3x3 (10 values, not 36), and the B operator of the core's derivatives as
 //   B x = dI x + x x* h, where dI = v x* I - I v x is the inertia's rate (again a spatial inertia,
@@ -15,7 +16,8 @@
 //   by the tree (an entry is one product or another as its row is an ancestor or a descendant of
 //   its column's joint), on the FP64 tensor cores (WarpLanes::tree_product);
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
-//   a state fails at the same joint for the same reason;
+//   a state fails at the same joint for the same reason; where the model type fixes at most 8
+//   joints, by a factorization M = U D U^T with the same pivots, in every lane;
 // - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
 // - the outputs staged in shared memory, a warp's states one after the other, and written by the
 //   whole warp as whole lines.
@@ -234,39 +236,105 @@ RBDGRAD_HD void load_pair(const S* from, S& a, S& b) {
 }
 
 // x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`,
-// both even: 16-byte pairs): each lane writes its own terms, then adds those of its descendants
-// in index order. kRows = 0: each lane reads its descendants' rows. kRows > 0: every lane reads
-// rows 1 .. kRows - 1 and keeps its descendants': the lanes of a segment read the same row, one
-// address a segment where each lane reading a row of its own took four times the shared-memory
-// wavefronts (ncu, run 68: the subtree sums took a third of the kernel's), for kRows - 1 reads
-// instead of the most descendants of a joint (the same for a chain).
-template <int kRows, class S, int K, class Lanes>
+// both even: 16-byte pairs): each lane writes its own terms, then adds those of its descendants'
+// rows in index order.
+template <class S, int K, class Lanes>
 RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Lanes& g) {
   static_assert(K % 2 == 0, "the terms go in pairs");
   for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
   g.sync();
-  if constexpr (kRows > 0) {
-    for (int j = 1; j < kRows; ++j) {
-      const bool descendant = i < j && j < end;
-      for (int k = 0; k < K; k += 2) {
-        S a, b;
-        load_pair(rows + j * stride + k, a, b);
-        if (descendant) {
-          x[k] += a;
-          x[k + 1] += b;
-        }
-      }
+  for (int j = i + 1; j < end; ++j)
+    for (int k = 0; k < K; k += 2) {
+      S a, b;
+      load_pair(rows + j * stride + k, a, b);
+      x[k] += a;
+      x[k + 1] += b;
     }
-  } else {
-    for (int j = i + 1; j < end; ++j)
-      for (int k = 0; k < K; k += 2) {
-        S a, b;
-        load_pair(rows + j * stride + k, a, b);
-        x[k] += a;
-        x[k + 1] += b;
-      }
+  g.sync();
+}
+
+// The same where the model type fixes the tree (Topology::known, kN joints): each lane writes its
+// own terms, then lane l takes the pairs l + W p (p < kPairs, those below K / 2) of every joint's
+// row into registers, adds each joint's into its parent's from the leaves up (the tree as
+// constants) and writes back those of the joints with descendants, and each lane reads its own
+// row. Against every lane reading every row of the state (one address a segment, keeping its
+// descendants'), for iiwa14's K = 32: 30 reads of 16 bytes and 24 additions a lane for 96 and 192
+// (runs 75 and 76: the kernel 9% faster).
+template <int W, int kN, class Topology, class S, int K, class Lanes, class Model>
+RBDGRAD_HD void subtree_sum_by_terms(S (&x)[K], S* rows, int stride, int i, const Model& m, const Lanes& g) {
+  static_assert(K % 2 == 0, "the terms go in pairs");
+  constexpr int kPairs = (K / 2 + W - 1) / W;
+  for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
+  g.sync();
+  const auto mine = [&](int p) { return g.lane + W * p < K / 2; };
+  const auto at = [&](int j, int p) { return rows + j * stride + 2 * (g.lane + W * p); };
+  S t[kN][2 * kPairs] = {};
+  for (int j = 0; j < kN; ++j)
+    for (int p = 0; p < kPairs; ++p)
+      if (mine(p)) load_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
+  for (int j = kN - 1; j > 0; --j) {
+    const int parent = Topology::parent(m, j);
+    if (parent >= 0)
+      for (int k = 0; k < 2 * kPairs; ++k) t[parent][k] += t[j][k];
+  }
+  // a lane writes back only what it read: no barrier between
+  for (int j = 0; j < kN; ++j) {
+    if (Topology::subtree_end(m, j) == j + 1) continue;  // a leaf's row is its sum
+    for (int p = 0; p < kPairs; ++p)
+      if (mine(p)) store_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
   }
   g.sync();
+  // a lane's own row, which only it writes next: no barrier after
+  for (int k = 0; k < K; k += 2) load_pair(rows + i * stride + k, x[k], x[k + 1]);
+}
+
+// Column i of M^-1 (x, zero past kN) for a model of kN <= 8 joints, in every lane from the whole of
+// M (kN x kN in shared memory, rows and columns in tree_slot order, rows `stride` apart, 16-byte
+// aligned): M = U D U^T with U unit upper triangular, its pivots from the last joint to the first
+// as the exchange steps' (pivot k the same Schur complement, so that a state fails at the same
+// joint for the same reason), then U D U^T x = e_i by two triangular solves. Its upper triangle
+// read by every lane in 16-byte pairs (iiwa14: 20 reads) where the exchange steps took kN^2
+// shuffles of doubles (49) and kN^2 updates with selects (run 76: the kernel 2% faster).
+template <int kN, int W, class S>
+RBDGRAD_HD void minv_column_by_factors(const S* M, int stride, int i, S (&x)[W], std::uint32_t& status) {
+  static_assert(kN <= 8 && W == 8, "a model on 8 lanes");
+  S A[kN][kN] = {};  // M's upper triangle, then U's above the diagonal and D^-1 on it
+  for (int a = 0; a < kN; ++a)
+    for (int m = 0; m < 4; ++m) {
+      const int j0 = slot_joint(2 * m), j1 = slot_joint(2 * m + 1);
+      const bool in0 = a <= j0 && j0 < kN, in1 = a <= j1 && j1 < kN;
+      if (!in0 && !in1) continue;
+      S v0, v1;
+      load_pair(M + tree_slot(a) * stride + 2 * m, v0, v1);
+      if (in0) A[a][j0] = v0;
+      if (in1) A[a][j1] = v1;
+    }
+  for (int k = kN - 1; k >= 0; --k) {
+    const S d = A[k][k];
+    // the first bad pivot in pivot order names the state's failure
+    if (status == 0 && !is_finite(d)) status = state_status(Reason::kMassNotFinite, Algorithm::kNone, k);
+    else if (status == 0 && !(d > S(0))) status = state_status(Reason::kMassNotPositive, Algorithm::kNone, k);
+    const S rp = reciprocal(d);
+    for (int a = 0; a < k; ++a) {
+      const S u = A[a][k] * rp;
+      for (int b = a; b < k; ++b) A[a][b] -= u * A[b][k];
+      A[a][k] = u;
+    }
+    A[k][k] = rp;
+  }
+  // U y = e_i, then U^T x = D^-1 y
+  S y[kN];
+  for (int k = kN - 1; k >= 0; --k) {
+    S v = k == i ? S(1) : S(0);
+    for (int j = k + 1; j < kN; ++j) v -= A[k][j] * y[j];
+    y[k] = v;
+  }
+  for (int k = 0; k < kN; ++k) {
+    S v = y[k] * A[k][k];
+    for (int j = 0; j < k; ++j) v -= A[j][k] * x[j];
+    x[k] = v;
+  }
+  for (int k = kN; k < W; ++k) x[k] = S(0);
 }
 
 template <class S>
@@ -319,9 +387,6 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     u = static_cast<S>(b.u[state * vec + i]);
   }
   using Topology = FixedTree<Model>;  // the tree where the model type fixes it
-  // the subtree sums read every row where that takes at most twice the reads of the joint with
-  // the most descendants (a chain: as many), else each lane its descendants' (warp::subtree_sum)
-  constexpr int kSubtreeRows = Topology::known && kFixedNv - 1 <= 2 * Topology::max_descendants() ? kFixedNv : 0;
   const int parent = joint ? Topology::parent(m, i) : -1;
   const int end = joint ? Topology::subtree_end(m, i) : i + 1;
   const warp::Jumps jumps = Topology::known ? warp::tree_jumps(m, parent, levels) : warp::jumps(parent, levels, g);
@@ -462,7 +527,10 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
       terms[2 * warp::kInertiaTerms + k] = mom.v[k];
       terms[2 * warp::kInertiaTerms + 6 + k] = f.v[k];
     }
-    warp::subtree_sum<kSubtreeRows>(terms, rows, kStride, i, end, g);
+    if constexpr (Topology::known)
+      warp::subtree_sum_by_terms<W, kFixedNv, Topology>(terms, rows, kStride, i, m, g);
+    else
+      warp::subtree_sum(terms, rows, kStride, i, end, g);
     Ic = warp::unpack(terms);
     dIc = warp::unpack(terms + warp::kInertiaTerms);
     for (int k = 0; k < 6; ++k) {
@@ -498,11 +566,15 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   // M: up S_r . Ic_S, down Ic_S_r . S (into M^-1's place, this lane's column read back); d tau/d qd:
   // up S_r . E, down Ic_S_r . 2 alpha + Bc^T_S_r . S (into the right factor of its product with
   // M^-1)
+  // M^-1 by a factorization in every lane (warp::minv_column_by_factors) where the model type fixes
+  // at most 8 joints, else by exchange steps on the lanes' columns
+  constexpr bool kFactorsInLanes = kFixedNv > 0 && kFixedNv <= 8;
   S col[W];
   if (!minv_supplied) {
     g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<RowTerm<Column::kIcS, Column::kAxis>>{},
                    tree, rows, kStride, minv_rows);
-    for (int r = 0; r < W; ++r) col[r] = minv_rows[tree_slot(r) * kBlock + tree_slot(i)];
+    if constexpr (!kFactorsInLanes)
+      for (int r = 0; r < W; ++r) col[r] = minv_rows[tree_slot(r) * kBlock + tree_slot(i)];
   }
   if (want_dqd)
     g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
@@ -510,12 +582,15 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
                    rows, kStride, sh + WarpShared<W>::kProduct);
 
   g.stamp();  // columns of M and d tau/d qd
-  // M^-1: the caller's, or by exchange steps on the columns (leaves first, as the block kernel);
-  // the pivots are checked after the steps, in pivot order
+  // M^-1: the caller's, or by a factorization in every lane, or by exchange steps on the columns
+  // (leaves first, as the block kernel); the pivots are checked in pivot order
   std::uint32_t status = 0;
   if (minv_supplied) {
     // row i of the caller's M^-1 (for qdd's row; it goes to shared memory as that row)
     for (int r = 0; r < W; ++r) col[r] = joint && r < n ? static_cast<S>(b.minv[state * mat + i * vec + r]) : S(0);
+  } else if constexpr (kFactorsInLanes) {
+    warp::minv_column_by_factors<kFixedNv>(minv_rows, kBlock, i, col, status);
+    g.sync();  // every lane's reads of M before M^-1 replaces it
   } else {
     for (int pv = W - 1; pv >= 0; --pv) {
       if (pv >= n) continue;
@@ -602,7 +677,10 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     S f_qdd[6];
     const Vec6<S> Ia = warp::mul(I, a_qdd);
     for (int k = 0; k < 6; ++k) f_qdd[k] = Ia.v[k];
-    warp::subtree_sum<kSubtreeRows>(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
+    if constexpr (Topology::known)
+      warp::subtree_sum_by_terms<W, kFixedNv, Topology>(f_qdd, rows + Column::kFqdd, kStride, i, m, g);
+    else
+      warp::subtree_sum(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
     Vec6<S> F_total;
     for (int k = 0; k < 6; ++k) F_total.v[k] = F.v[k] + f_qdd[k];
     // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc; the columns: up S_r . Dq,

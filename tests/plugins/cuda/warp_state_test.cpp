@@ -214,7 +214,6 @@ TEST(WarpStateOnHost, FixedTreeIsTheModelsTree) {
     EXPECT_EQ(cuda::FixedTree<IiwaTree>::parent(iiwa_view, i), iiwa.parent[i]) << i;
     EXPECT_EQ(cuda::FixedTree<IiwaTree>::subtree_end(iiwa_view, i), iiwa.subtree_end[i]) << i;
   }
-  static_assert(cuda::FixedTree<IiwaTree>::max_descendants() == 6 && cuda::FixedTree<HyqTree>::max_descendants() == 2);
   for (int i = 0; i < hyq.nv; ++i) {
     EXPECT_EQ(cuda::FixedTree<HyqTree>::parent(hyq_view, i), hyq.parent[i]) << i;
     EXPECT_EQ(cuda::FixedTree<HyqTree>::subtree_end(hyq_view, i), hyq.subtree_end[i]) << i;
@@ -277,13 +276,18 @@ TEST(WarpStateOnHost, FailingStatesHaveTheBlockKernelsStatus) {
   model.mass[static_cast<std::size_t>(last)] = 0;
   model.inertia_com[static_cast<std::size_t>(last)].setZero();
   const Model plain = robot_model("iiwa14");
-  // one state a segment, and the three in one warp (a failing state flags only its own)
+  // one state a segment, and the three in one warp (a failing state flags only its own); the code
+  // for any robot, and the code compiled for iiwa14 (M^-1 by a factorization in every lane)
+  for (const bool robot_sized : {false, true})
   for (const bool full_warps : {false, true}) {
     for (const Model* m : {&plain, static_cast<const Model*>(&model)}) {
       const bool zero_mass = m == &model;
       const OutputCase& c = kBlockCases[1];
       CudaBatch<double> warp(states, m->nv, true), block(states, m->nv, true);
-      const std::vector<std::uint32_t> status = run_warp(*m, warp, c, true, zero_mass, full_warps);
+      const std::vector<std::uint32_t> status =
+          !robot_sized ? run_warp(*m, warp, c, true, zero_mass, full_warps)
+          : full_warps ? run_warps_on_host<8, 4, double, IiwaTree>(*m, warp, c, true, zero_mass)
+                       : run_warps_on_host<8, 1, double, IiwaTree>(*m, warp, c, true, zero_mass);
       const cuda::FlatModel<double> flat(*m);
       const cuda::ModelView<double> view(flat.host_view());
       std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(m->nv, false), 0.0);
@@ -295,7 +299,8 @@ TEST(WarpStateOnHost, FailingStatesHaveTheBlockKernelsStatus) {
         cuda::block_load_inputs(m->nv, w, b, k, cuda::ThreadGroup{});
         cuda::block_evaluate_state(view, w, b, k, true, cuda::ThreadGroup{});
       }
-      const std::string where = std::string(zero_mass ? "zero mass" : "NaN velocity") + (full_warps ? ", whole warps" : "");
+      const std::string where = std::string(zero_mass ? "zero mass" : "NaN velocity") + (full_warps ? ", whole warps" : "") +
+                                (robot_sized ? ", robot-sized code" : "");
       EXPECT_NE(expected[1], 0u) << where;
       if (!zero_mass) {
         EXPECT_EQ(expected[0], 0u) << where;  // the NaN flags its own state only
