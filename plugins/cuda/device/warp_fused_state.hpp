@@ -563,7 +563,8 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   const auto tree = g.tree(keep);
 
   g.stamp();  // joint vectors
-  // M: up S_r . Ic_S, down Ic_S_r . S (into M^-1's place, this lane's column read back); d tau/d qd:
+  // M: up S_r . Ic_S, down Ic_S_r . S (into M^-1's place; the exchange steps read this lane's column
+  // back); d tau/d qd:
   // up S_r . E, down Ic_S_r . 2 alpha + Bc^T_S_r . S (into the right factor of its product with
   // M^-1)
   // M^-1 by a factorization in every lane (warp::minv_column_by_factors) where the model type fixes

@@ -278,34 +278,35 @@ TEST(WarpStateOnHost, FailingStatesHaveTheBlockKernelsStatus) {
   const Model plain = robot_model("iiwa14");
   // one state a segment, and the three in one warp (a failing state flags only its own); the code
   // for any robot, and the code compiled for iiwa14 (M^-1 by a factorization in every lane)
-  for (const bool robot_sized : {false, true})
-  for (const bool full_warps : {false, true}) {
-    for (const Model* m : {&plain, static_cast<const Model*>(&model)}) {
-      const bool zero_mass = m == &model;
-      const OutputCase& c = kBlockCases[1];
-      CudaBatch<double> warp(states, m->nv, true), block(states, m->nv, true);
-      const std::vector<std::uint32_t> status =
-          !robot_sized ? run_warp(*m, warp, c, true, zero_mass, full_warps)
-          : full_warps ? run_warps_on_host<8, 4, double, IiwaTree>(*m, warp, c, true, zero_mass)
-                       : run_warps_on_host<8, 1, double, IiwaTree>(*m, warp, c, true, zero_mass);
-      const cuda::FlatModel<double> flat(*m);
-      const cuda::ModelView<double> view(flat.host_view());
-      std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(m->nv, false), 0.0);
-      const cuda::BlockWorkspace<double> w(shared.data(), m->nv, false);
-      cuda::BatchPointers<double> b = block.pointers(c, true);
-      std::vector<std::uint32_t> expected(states.size(), 0xffffffffu);
-      b.status = expected.data();
-      for (std::size_t k = 0; k < states.size(); ++k) {
-        cuda::block_load_inputs(m->nv, w, b, k, cuda::ThreadGroup{});
-        cuda::block_evaluate_state(view, w, b, k, true, cuda::ThreadGroup{});
+  for (const bool robot_sized : {false, true}) {
+    for (const bool full_warps : {false, true}) {
+      for (const Model* m : {&plain, static_cast<const Model*>(&model)}) {
+        const bool zero_mass = m == &model;
+        const OutputCase& c = kBlockCases[1];
+        CudaBatch<double> warp(states, m->nv, true), block(states, m->nv, true);
+        const std::vector<std::uint32_t> status =
+            !robot_sized ? run_warp(*m, warp, c, true, zero_mass, full_warps)
+            : full_warps ? run_warps_on_host<8, 4, double, IiwaTree>(*m, warp, c, true, zero_mass)
+                         : run_warps_on_host<8, 1, double, IiwaTree>(*m, warp, c, true, zero_mass);
+        const cuda::FlatModel<double> flat(*m);
+        const cuda::ModelView<double> view(flat.host_view());
+        std::vector<double> shared(cuda::BlockWorkspace<double>::scalars(m->nv, false), 0.0);
+        const cuda::BlockWorkspace<double> w(shared.data(), m->nv, false);
+        cuda::BatchPointers<double> b = block.pointers(c, true);
+        std::vector<std::uint32_t> expected(states.size(), 0xffffffffu);
+        b.status = expected.data();
+        for (std::size_t k = 0; k < states.size(); ++k) {
+          cuda::block_load_inputs(m->nv, w, b, k, cuda::ThreadGroup{});
+          cuda::block_evaluate_state(view, w, b, k, true, cuda::ThreadGroup{});
+        }
+        const std::string where = std::string(zero_mass ? "zero mass" : "NaN velocity") + (full_warps ? ", whole warps" : "") +
+                                  (robot_sized ? ", robot-sized code" : "");
+        EXPECT_NE(expected[1], 0u) << where;
+        if (!zero_mass) {
+          EXPECT_EQ(expected[0], 0u) << where;  // the NaN flags its own state only
+        }
+        EXPECT_EQ(status, expected) << where;
       }
-      const std::string where = std::string(zero_mass ? "zero mass" : "NaN velocity") + (full_warps ? ", whole warps" : "") +
-                                (robot_sized ? ", robot-sized code" : "");
-      EXPECT_NE(expected[1], 0u) << where;
-      if (!zero_mass) {
-        EXPECT_EQ(expected[0], 0u) << where;  // the NaN flags its own state only
-      }
-      EXPECT_EQ(status, expected) << where;
     }
   }
 }
