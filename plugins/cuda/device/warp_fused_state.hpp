@@ -236,56 +236,51 @@ RBDGRAD_HD void load_pair(const S* from, S& a, S& b) {
 }
 
 // x over the joint's subtree [i, end) through the state's rows (stride `stride`, x at `rows`,
-// both even: 16-byte pairs): each lane writes its own terms, then adds those of its descendants'
-// rows in index order.
-template <class S, int K, class Lanes>
-RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Lanes& g) {
-  static_assert(K % 2 == 0, "the terms go in pairs");
-  for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
-  g.sync();
-  for (int j = i + 1; j < end; ++j)
-    for (int k = 0; k < K; k += 2) {
-      S a, b;
-      load_pair(rows + j * stride + k, a, b);
-      x[k] += a;
-      x[k + 1] += b;
-    }
-  g.sync();
-}
-
-// The same where the model type fixes the tree (Topology::known, kN joints): each lane writes its
-// own terms, then lane l takes the pairs l + W p (p < kPairs, those below K / 2) of every joint's
-// row into registers, adds each joint's into its parent's from the leaves up (the tree as
-// constants) and writes back those of the joints with descendants, and each lane reads its own
-// row. Against every lane reading every row of the state (one address a segment, keeping its
-// descendants'), for iiwa14's K = 32: 30 reads of 16 bytes and 24 additions a lane for 96 and 192
-// (runs 75 and 76: the kernel 9% faster).
+// both even: 16-byte pairs). Each lane writes its own terms; then
+// - where the model type fixes the tree (Topology::known, kN joints), by terms: lane l takes the
+//   pairs l + W p (p < kPairs, those below K / 2) of every joint's row into registers, adds each
+//   joint's into its parent's from the leaves up (the tree as constants), writes back those of the
+//   joints with descendants, and each lane reads its own row. Against every lane reading every row
+//   of the state (one address a segment, keeping its descendants'), for iiwa14's K = 32: 30 reads
+//   of 16 bytes and 24 additions a lane for 96 and 192 (runs 75 and 76: the kernel 9% faster);
+// - otherwise each lane adds its descendants' rows in index order.
 template <int W, int kN, class Topology, class S, int K, class Lanes, class Model>
-RBDGRAD_HD void subtree_sum_by_terms(S (&x)[K], S* rows, int stride, int i, const Model& m, const Lanes& g) {
+RBDGRAD_HD void subtree_sum(S (&x)[K], S* rows, int stride, int i, int end, const Model& m, const Lanes& g) {
   static_assert(K % 2 == 0, "the terms go in pairs");
-  constexpr int kPairs = (K / 2 + W - 1) / W;
   for (int k = 0; k < K; k += 2) store_pair(rows + i * stride + k, x[k], x[k + 1]);
   g.sync();
-  const auto mine = [&](int p) { return g.lane + W * p < K / 2; };
-  const auto at = [&](int j, int p) { return rows + j * stride + 2 * (g.lane + W * p); };
-  S t[kN][2 * kPairs] = {};
-  for (int j = 0; j < kN; ++j)
-    for (int p = 0; p < kPairs; ++p)
-      if (mine(p)) load_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
-  for (int j = kN - 1; j > 0; --j) {
-    const int parent = Topology::parent(m, j);
-    if (parent >= 0)
-      for (int k = 0; k < 2 * kPairs; ++k) t[parent][k] += t[j][k];
+  if constexpr (Topology::known) {
+    constexpr int kPairs = (K / 2 + W - 1) / W;
+    const auto mine = [&](int p) { return g.lane + W * p < K / 2; };
+    const auto at = [&](int j, int p) { return rows + j * stride + 2 * (g.lane + W * p); };
+    S t[kN][2 * kPairs] = {};
+    for (int j = 0; j < kN; ++j)
+      for (int p = 0; p < kPairs; ++p)
+        if (mine(p)) load_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
+    for (int j = kN - 1; j > 0; --j) {
+      const int parent = Topology::parent(m, j);
+      if (parent >= 0)
+        for (int k = 0; k < 2 * kPairs; ++k) t[parent][k] += t[j][k];
+    }
+    // a lane writes back only what it read: no barrier between
+    for (int j = 0; j < kN; ++j) {
+      if (Topology::subtree_end(m, j) == j + 1) continue;  // a leaf's row is its sum
+      for (int p = 0; p < kPairs; ++p)
+        if (mine(p)) store_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
+    }
+    g.sync();
+    // a lane's own row, which only it writes next: no barrier after
+    for (int k = 0; k < K; k += 2) load_pair(rows + i * stride + k, x[k], x[k + 1]);
+  } else {
+    for (int j = i + 1; j < end; ++j)
+      for (int k = 0; k < K; k += 2) {
+        S a, b;
+        load_pair(rows + j * stride + k, a, b);
+        x[k] += a;
+        x[k + 1] += b;
+      }
+    g.sync();
   }
-  // a lane writes back only what it read: no barrier between
-  for (int j = 0; j < kN; ++j) {
-    if (Topology::subtree_end(m, j) == j + 1) continue;  // a leaf's row is its sum
-    for (int p = 0; p < kPairs; ++p)
-      if (mine(p)) store_pair(at(j, p), t[j][2 * p], t[j][2 * p + 1]);
-  }
-  g.sync();
-  // a lane's own row, which only it writes next: no barrier after
-  for (int k = 0; k < K; k += 2) load_pair(rows + i * stride + k, x[k], x[k + 1]);
 }
 
 // Column i of M^-1 (x, zero past kN) for a model of kN <= 8 joints, in every lane from the whole of
@@ -527,10 +522,7 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
       terms[2 * warp::kInertiaTerms + k] = mom.v[k];
       terms[2 * warp::kInertiaTerms + 6 + k] = f.v[k];
     }
-    if constexpr (Topology::known)
-      warp::subtree_sum_by_terms<W, kFixedNv, Topology>(terms, rows, kStride, i, m, g);
-    else
-      warp::subtree_sum(terms, rows, kStride, i, end, g);
+    warp::subtree_sum<W, kFixedNv, Topology>(terms, rows, kStride, i, end, m, g);
     Ic = warp::unpack(terms);
     dIc = warp::unpack(terms + warp::kInertiaTerms);
     for (int k = 0; k < 6; ++k) {
@@ -678,10 +670,7 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     S f_qdd[6];
     const Vec6<S> Ia = warp::mul(I, a_qdd);
     for (int k = 0; k < 6; ++k) f_qdd[k] = Ia.v[k];
-    if constexpr (Topology::known)
-      warp::subtree_sum_by_terms<W, kFixedNv, Topology>(f_qdd, rows + Column::kFqdd, kStride, i, m, g);
-    else
-      warp::subtree_sum(f_qdd, rows + Column::kFqdd, kStride, i, end, g);
+    warp::subtree_sum<W, kFixedNv, Topology>(f_qdd, rows + Column::kFqdd, kStride, i, end, m, g);
     Vec6<S> F_total;
     for (int k = 0; k < 6; ++k) F_total.v[k] = F.v[k] + f_qdd[k];
     // Dq = S x* F + Ic beta + Bc alpha, Bc alpha = dIc alpha + alpha x* hc; the columns: up S_r . Dq,
