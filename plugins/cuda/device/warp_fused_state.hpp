@@ -17,7 +17,8 @@
 //   its column's joint), on the FP64 tensor cores (WarpLanes::tree_product);
 // - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
 //   a state fails at the same joint for the same reason; where the model type fixes at most 8
-//   joints, by a factorization M = U D U^T with the same pivots, in every lane;
+//   joints, by a factorization M = U D U^T with the same pivots, in every lane (which reads M's
+//   upper triangle only, so M's product keeps its up term only);
 // - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
 // - the outputs staged in shared memory, a warp's states one after the other, and written by the
 //   whole warp as whole lines.
@@ -52,7 +53,8 @@ RBDGRAD_HD constexpr int warp_segment_width(int nv) { return nv <= 8 ? 8 : nv <=
 // are padded so that the segments of a warp start 16 banks apart modulo 32: the two segments of
 // a half warp then read and write the same places of their regions on different banks (without
 // the padding, 48% of the kernel's shared-memory wavefronts were bank conflicts, ncu, run 49;
-// 8 banks apart took twice the wavefronts of M^-1's columns, run 72).
+// 8 banks apart took twice the wavefronts of M^-1's columns, run 72). Where the padding holds a
+// segment's W doubles (W = 8), it carries tau - c from the lanes to qdd's row products.
 template <int W>
 struct WarpShared {
   static constexpr int kSegments = 32 / W;
@@ -338,8 +340,16 @@ RBDGRAD_HD void store(S* to, const Vec6<S>& x) {
 }
 
 // where each joint vector sits in a row: what the products of rows read (WarpLanes::tree_product).
-// kUp: E, then Dq; kDown: 2 alpha, then beta; f_qdd's subtree sum at kFqdd before Dq goes there.
-enum Column : int { kAxis = 0, kIcS = 6, kBcTS = 12, kFqdd = 18, kUp = 18, kDown = 24, kAlpha = 30 };
+// The places are reused: at k2Alpha f_qdd's subtree sum, then Dq (kDq); at kE beta (kBeta). The
+// down terms of d tau/d qd and d tau/d q are one term of twelve each, [Ic S, Bc^T S] . [2 alpha, S]
+// and . [beta, alpha], so those pairs sit side by side: three tensor-core steps where two terms
+// of six took four (WarpLanes::tree_product).
+enum Column : int {
+  k2Alpha = 0, kFqdd = 0, kDq = 0,
+  kAxis = 6, kIcS = 12, kBcTS = 18,
+  kE = 24, kBeta = 24, kAlpha = 30
+};
+static_assert(kAxis == k2Alpha + 6 && kAlpha == kBeta + 6 && kBcTS == kIcS + 6, "the twelve-value terms' halves");
 
 }  // namespace warp
 
@@ -542,8 +552,8 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   warp::store(row + Column::kIcS, Ic_S);
   warp::store(row + Column::kBcTS, Bc_t_S);
   if (want_dqd) {
-    warp::store(row + Column::kUp, add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc)));  // E
-    warp::store(row + Column::kDown, scaled(alpha, S(2)));
+    warp::store(row + Column::kE, add(scaled(warp::mul(Ic, alpha), S(2)), add(dIc_S, S_x_momc)));
+    warp::store(row + Column::k2Alpha, scaled(alpha, S(2)));
   }
   // the columns of M, d tau/d qd and d tau/d q: row r of column i from the pair (r, i) of the block
   // kernel, r an ancestor-or-self ("up") or a strict descendant ("down") of joint i, else zero
@@ -564,15 +574,19 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   constexpr bool kFactorsInLanes = kFixedNv > 0 && kFixedNv <= 8;
   S col[W];
   if (!minv_supplied) {
-    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<RowTerm<Column::kIcS, Column::kAxis>>{},
-                   tree, rows, kStride, minv_rows);
-    if constexpr (!kFactorsInLanes)
+    if constexpr (kFactorsInLanes) {
+      // the factorization reads M's upper triangle only, whose rows are their column's ancestors or
+      // in other branches (depth-first order), never its descendants: the down term is not needed
+      g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<>{}, tree, rows, kStride, minv_rows);
+    } else {
+      g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kIcS>>{}, RowTerms<RowTerm<Column::kIcS, Column::kAxis>>{},
+                     tree, rows, kStride, minv_rows);
       for (int r = 0; r < W; ++r) col[r] = minv_rows[tree_slot(r) * kBlock + tree_slot(i)];
+    }
   }
   if (want_dqd)
-    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
-                   RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAxis>>{}, tree,
-                   rows, kStride, sh + WarpShared<W>::kProduct);
+    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kE>>{}, typename PairedTerms<W, Column::kIcS, Column::k2Alpha>::type{},
+                   tree, rows, kStride, sh + WarpShared<W>::kProduct);
 
   g.stamp();  // columns of M and d tau/d qd
   // M^-1: the caller's, or by a factorization in every lane, or by exchange steps on the columns
@@ -608,17 +622,30 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
   // M^-1 with its columns in tree_slot order, as the products with it take it (WarpLanes::product)
   for (int r = 0; r < W; ++r)
     minv_rows[minv_supplied ? i * kBlock + tree_slot(r) : r * kBlock + tree_slot(i)] = col[r];
+  // tau - c of every joint, through the region's spare doubles where a segment's fit there (a
+  // 16-byte read for two joints where a shuffle took one)
+  constexpr bool kDiffShared = WarpShared<W>::kScalars - WarpShared<W>::kUsed >= W;
+  const S diff = u - c_joint;
+  if constexpr (kDiffShared) sh[WarpShared<W>::kUsed + i] = diff;
   g.sync();
   g.stamp();  // M^-1
   // qdd = M^-1 (tau - c), row i: the caller's row, or the computed column i (M^-1 is symmetric;
-  // the exchange steps' roundings aside, row and column are the same), tau - c from the lanes
+  // the exchange steps' roundings aside, row and column are the same)
   S qdd = u;
   if (b.tau_input) {
-    const S diff = u - c_joint;
     qdd = S(0);
-    for (int j = 0; j < kRows; ++j) {
-      const S d_j = g.shfl(diff, j);
-      if (j < n) qdd += col[j] * d_j;
+    if constexpr (kDiffShared) {
+      for (int j = 0; j < kRows; j += 2) {
+        S d0, d1;
+        warp::load_pair(sh + WarpShared<W>::kUsed + j, d0, d1);
+        if (j < n) qdd += col[j] * d0;
+        if (j + 1 < n) qdd += col[j + 1] * d1;
+      }
+    } else {
+      for (int j = 0; j < kRows; ++j) {
+        const S d_j = g.shfl(diff, j);
+        if (j < n) qdd += col[j] * d_j;
+      }
     }
   }
 
@@ -677,12 +704,11 @@ RBDGRAD_HD void warp_evaluate_state(const Model& m, S* sh, const BatchPointers<I
     // down Ic_S_r . beta + Bc^T_S_r . alpha
     const Vec6<S> Dq = add(add(cross_force(axis, F_total), warp::mul(Ic, beta)),
                            add(warp::mul(dIc, alpha), cross_force(alpha, momc)));
-    warp::store(row + Column::kUp, Dq);
-    warp::store(row + Column::kDown, beta);
+    warp::store(row + Column::kDq, Dq);
+    warp::store(row + Column::kBeta, beta);
     warp::store(row + Column::kAlpha, alpha);
-    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kUp>>{},
-                   RowTerms<RowTerm<Column::kIcS, Column::kDown>, RowTerm<Column::kBcTS, Column::kAlpha>>{}, tree,
-                   rows, kStride, sh + WarpShared<W>::kProduct);
+    g.tree_product(RowTerms<RowTerm<Column::kAxis, Column::kDq>>{}, typename PairedTerms<W, Column::kIcS, Column::kBeta>::type{},
+                   tree, rows, kStride, sh + WarpShared<W>::kProduct);
   }
 
   g.stamp();  // d tau/d q

@@ -40,13 +40,25 @@ RBDGRAD_HD void lane_column_product(const S* A, S* B, int column) {
 // Products of the rows of a state's joints (each row a joint's vectors, `stride` scalars apart) that
 // keep, in column n, the rows of n's ancestors-or-self ("up") and of its strict descendants
 // ("down"), the rest zero: the columns of M, d tau/d qd and d tau/d q (warp_fused_state.hpp).
-// A term: rows[r][A, A + 6) . rows[n][B, B + 6), six values of a joint vector each.
-template <int A, int B>
+// A term: rows[r][A, A + L) . rows[n][B, B + L): a joint vector (L = 6), or two side by side (12).
+template <int A, int B, int L = 6>
 struct RowTerm {
-  static constexpr int a = A, b = B;
+  static constexpr int a = A, b = B, length = L;
 };
 template <class... Terms>
 struct RowTerms {};
+
+// rows[r][A, A + 12) . rows[n][B, B + 12) on segments of W lanes: one term of twelve on 8 lanes
+// (three tensor-core steps where two terms of six take four), two of six on 16 (there the larger
+// tiles of a term of twelve spilled registers)
+template <int W, int A, int B>
+struct PairedTerms {
+  using type = RowTerms<RowTerm<A, B>, RowTerm<A + 6, B + 6>>;
+};
+template <int A, int B>
+struct PairedTerms<8, A, B> {
+  using type = RowTerms<RowTerm<A, B, 12>>;
+};
 
 // The rows a column keeps, bit r for row r.
 struct TreeRows {
@@ -56,7 +68,7 @@ struct TreeRows {
 template <class Term, class S>
 RBDGRAD_HD S row_term(const S* r, const S* n) {
   S x = r[Term::a] * n[Term::b];
-  for (int k = 1; k < 6; ++k) x += r[Term::a + k] * n[Term::b + k];
+  for (int k = 1; k < Term::length; ++k) x += r[Term::a + k] * n[Term::b + k];
   return x;
 }
 
@@ -135,12 +147,12 @@ struct WarpLanes {
 #endif
   }
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 800
-  // c += one term's A(row, k) B(k, column) over its six k (lane quad's k of each step)
+  // c += one term's A(row, k) B(k, column) over its k (lane quad's k of each step)
   template <class Term>
   static __device__ void mma_term(double (&c)[2], const double* a_row, const double* b_row, int quad) {
-    for (int kc = 0; kc < 2; ++kc) {
+    for (int kc = 0; kc < (Term::length + 3) / 4; ++kc) {
       const int k = 4 * kc + quad;
-      const bool in = k < 6;  // the second step's k = 6, 7: zeros (a row's other values may be anything)
+      const bool in = k < Term::length;  // k past the term (6, 7 of six): zeros (a row's other values may be anything)
       const double a = in ? a_row[Term::a + k] : 0.0, b = in ? b_row[Term::b + k] : 0.0;
       asm("mma.sync.aligned.m8n8k4.row.col.f64.f64.f64.f64 {%0, %1}, {%2}, {%3}, {%0, %1};"
           : "+d"(c[0]), "+d"(c[1])
@@ -239,9 +251,9 @@ struct WarpLanes {
   // rows kBlockStride apart, rows and columns in tree_slot order, 16-byte aligned) for the state
   // of every segment of the warp, `rows` and `out` at
   // the same offsets in each segment's region. Every lane of the warp calls it after writing its
-  // row; out is complete when it returns. On the GPU the FP64 tensor cores take each term as two
-  // mma steps (k = 0..3, then 4..5 and two zeros), where a lane's own column took its W rows'
-  // loads and dot products both ways (up and down) and kept one.
+  // row; out is complete when it returns. On the GPU the FP64 tensor cores take each term in mma
+  // steps of four k (six: 0..3, then 4..5 and two zeros; twelve: three steps), where a lane's own
+  // column took its W rows' loads and dot products both ways (up and down) and kept one.
   template <class... Up, class... Down, class S>
   RBDGRAD_HD void tree_product(RowTerms<Up...> up, RowTerms<Down...> down, const Tree& tree, const S* rows,
                                int stride, S* out) const {

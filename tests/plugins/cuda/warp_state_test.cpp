@@ -200,44 +200,47 @@ TEST(WarpStateOnHost, WholeWarpsWriteEachStatesOutputs) {
 
 // The model types of the kernel compiled for iiwa14, a chain, and hyq, four legs of three: the
 // sizes and the tree as constants (kernel_source.cpp writes them; kernel_source_test.cpp checks
-// the same constants).
+// the same constants). Branch8Tree: a random tree of 8 joints with branches (parents -1 0 0 2 0 4
+// 5 4), where M^-1 is factorized in every lane as for iiwa14, but M's upper triangle also has
+// entries whose row is in another branch.
 using IiwaTree = cuda::FixedTreeModelView<double, 7, 7, 0x6543210ull, 0x6666666ull>;
 using HyqTree = cuda::FixedTreeModelView<double, 12, 3, 0xba0870540210ull, 0xbbb888555222ull>;
+using Branch8Tree = cuda::FixedTreeModelView<double, 8, 4, 0x56513110ull, 0x76673317ull>;
+Model branch8_model() { return random_model(19, 8, TreeShape::kBranching); }
+
+template <class Fixed>
+void expect_fixed_tree_is(const Model& model) {
+  const cuda::FlatModel<double> flat(model);
+  const Fixed view(flat.host_view());
+  ASSERT_EQ(cuda::FixedSizes<Fixed>::nv, model.nv) << model.name;
+  ASSERT_EQ(cuda::FixedSizes<Fixed>::levels, model.max_depth()) << model.name;
+  for (int i = 0; i < model.nv; ++i) {
+    EXPECT_EQ(cuda::FixedTree<Fixed>::parent(view, i), model.parent[i]) << model.name << " joint " << i;
+    EXPECT_EQ(cuda::FixedTree<Fixed>::subtree_end(view, i), model.subtree_end[i]) << model.name << " joint " << i;
+  }
+}
 
 TEST(WarpStateOnHost, FixedTreeIsTheModelsTree) {
-  const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq");
-  const cuda::FlatModel<double> iiwa_flat(iiwa), hyq_flat(hyq);
-  const IiwaTree iiwa_view(iiwa_flat.host_view());
-  const HyqTree hyq_view(hyq_flat.host_view());
   static_assert(cuda::FixedTree<IiwaTree>::known && !cuda::FixedTree<cuda::ModelView<double>>::known);
-  for (int i = 0; i < iiwa.nv; ++i) {
-    EXPECT_EQ(cuda::FixedTree<IiwaTree>::parent(iiwa_view, i), iiwa.parent[i]) << i;
-    EXPECT_EQ(cuda::FixedTree<IiwaTree>::subtree_end(iiwa_view, i), iiwa.subtree_end[i]) << i;
-  }
-  for (int i = 0; i < hyq.nv; ++i) {
-    EXPECT_EQ(cuda::FixedTree<HyqTree>::parent(hyq_view, i), hyq.parent[i]) << i;
-    EXPECT_EQ(cuda::FixedTree<HyqTree>::subtree_end(hyq_view, i), hyq.subtree_end[i]) << i;
-  }
+  expect_fixed_tree_is<IiwaTree>(robot_model("iiwa14"));
+  expect_fixed_tree_is<HyqTree>(robot_model("hyq"));
+  expect_fixed_tree_is<Branch8Tree>(branch8_model());
 }
 
 // The code the kernel compiled for the robot runs (the joint count, depth and tree as constants:
 // fixed loop trip counts, no loads of the tree) on iiwa14 and hyq: the same results.
 TEST(WarpStateOnHost, RobotSizedCodeMatchesCore) {
-  const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq");
-  ASSERT_EQ(iiwa.nv, 7);
-  ASSERT_EQ(iiwa.max_depth(), 7);
-  ASSERT_EQ(hyq.nv, 12);
-  ASSERT_EQ(hyq.max_depth(), 3);
+  const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq"), branch8 = branch8_model();
   for (const bool early : {false, true}) {
-    for (const Model* model : {&iiwa, &hyq}) {
+    for (const Model* model : {&iiwa, &hyq, &branch8}) {
       const std::vector<StateInputs> states = random_inputs(*model, 5, 31);
       const OutputCase& c = kBlockCases[1];
       CudaBatch<double> a(states, model->nv, true);
       a.poison();
       const std::vector<std::uint32_t> status =
-          model == &iiwa
-              ? run_warps_on_host<8, 4, double, IiwaTree>(*model, a, c, true, early)
-              : run_warps_on_host<16, 2, double, HyqTree>(*model, a, c, true, early);
+          model == &iiwa  ? run_warps_on_host<8, 4, double, IiwaTree>(*model, a, c, true, early)
+          : model == &hyq ? run_warps_on_host<16, 2, double, HyqTree>(*model, a, c, true, early)
+                          : run_warps_on_host<8, 4, double, Branch8Tree>(*model, a, c, true, early);
       const std::string where = model->name + (early ? ", early outputs" : "");
       for (std::size_t k = 0; k < states.size(); ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
       const Comparison cmp = compare_with_core(*model, a, c, true);
