@@ -228,7 +228,8 @@ TEST(WarpStateOnHost, FixedTreeIsTheModelsTree) {
 }
 
 // The code the kernel compiled for the robot runs (the joint count, depth and tree as constants:
-// fixed loop trip counts, no loads of the tree) on iiwa14 and hyq: the same results.
+// fixed loop trip counts, no loads of the tree) on iiwa14, hyq and the branched tree of 8 joints:
+// the same results.
 TEST(WarpStateOnHost, RobotSizedCodeMatchesCore) {
   const Model iiwa = robot_model("iiwa14"), hyq = robot_model("hyq"), branch8 = branch8_model();
   for (const bool early : {false, true}) {
