@@ -190,6 +190,12 @@ Kernel pipeline(std::size_t chunks, bool robot_specific = true) {
   k.options.robot_specific = robot_specific;
   return k;
 }
+// `k` with the block kernel at `threads` per state (one state a block)
+Kernel wider(Kernel k, int threads) {
+  k.name += "-" + std::to_string(threads);
+  k.options.block_shape = {threads, 1};
+  return k;
+}
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
 Kernel warp_outputs(bool early) {
   Kernel k{early ? "early" : "late", {}};
@@ -363,6 +369,10 @@ const bool registered = [] {
         if (chunks != 1) continue;
         add<float>("cuda_pipeline", robot, n, pipeline(chunks, false));
         add<double>("cuda_pipeline", robot, n, pipeline(chunks, false));
+        // the block kernel (talos_reduced's) with twice its threads per state, one launch
+        if (n != 65536) continue;
+        add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
+        add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
       }
   // cuda_mapped: mapped memory at sizes where the defaults copy
   for (const char* robot : {"iiwa14", "talos_reduced"})

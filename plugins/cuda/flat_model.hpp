@@ -20,11 +20,13 @@ struct FlatModel {
       ints[i] = model.parent[i];
       ints[n + i] = model.subtree_end[i];
       ints[2 * n + i] = model.type[i] == JointType::kPrismatic ? 1 : 0;
+      // parents come first: a root's own entry is set before its descendants read it
+      ints[3 * n + i] = model.parent[i] < 0 ? static_cast<int>(i) : ints[3 * n + static_cast<std::size_t>(model.parent[i])];
     }
     // level_joints and level_start (ModelView): a counting sort of the joints by depth
     levels = model.max_depth();
-    int* level_joints = ints.data() + 3 * n;
-    int* level_start = ints.data() + 4 * n;
+    int* level_joints = ints.data() + 4 * n;
+    int* level_start = ints.data() + 5 * n;
     int at = 0;
     for (int level = 0; level < levels; ++level) {
       level_start[level] = at;

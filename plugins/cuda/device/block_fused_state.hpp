@@ -52,17 +52,17 @@ constexpr RBDGRAD_HD bool block_uses_aba(bool tau_input) {
 
 namespace block {
 
-// (A x)_k of a 6x6 A at body i of `base`; (A^T x)_k
+// (A x)_k of a 6x6 A at body i of `base` (kBodyMatrixStride apart); (A^T x)_k
 template <class S>
 RBDGRAD_HD S row_dot(const S* base, int i, int k, const S* x) {
-  const S* row = base + 36 * i + 6 * k;
+  const S* row = base + kBodyMatrixStride * i + 6 * k;
   S s = row[0] * x[0];
   for (int c = 1; c < 6; ++c) s += row[c] * x[c];
   return s;
 }
 template <class S>
 RBDGRAD_HD S col_dot(const S* base, int i, int k, const S* x) {
-  const S* col = base + 36 * i + k;
+  const S* col = base + kBodyMatrixStride * i + k;
   S s = col[0] * x[0];
   for (int r = 1; r < 6; ++r) s += col[6 * r] * x[r];
   return s;
@@ -216,12 +216,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.sync();
   // axes, centres of mass and rotational inertias in world axes, external forces in the world:
   // every entry of every body in parallel (the local transforms are not needed any more, their
-  // arrays hold c = R com and Icw = R Ic R^T)
+  // arrays hold c = R com and Icw = R Ic R^T). Item t is term t / n of body t % n: the lanes of a
+  // warp take the same term of consecutive bodies, so that its branches do not diverge.
   S* const com_w = w.p_local;
   S* const Icw = w.R_local;
   constexpr int kBodyTerms = 24;  // axis 6, c 3, Icw 9, external force 6
   g.for_each(kBodyTerms * n, [&](int t) {
-    const int i = t / kBodyTerms, e = t % kBodyTerms;
+    const int e = by_n.quotient(t), i = t - e * n;
     const S* R = w.R + 9 * i;
     const S* p = w.p + 3 * i;
     if (e < 6) {
@@ -268,19 +269,19 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // spatial inertias at the world origin (centre of mass c + p) and, for the articulated-body
   // pass, at the joint point (c), entry by entry as spatial_inertia builds them; in the same pass
   // (one sync less: each pass costs about 650 cycles even when short, docs/benchmarks/cuda.md),
-  // the velocities: sums of S_j qd_j over the ancestors-or-self
+  // the velocities: sums of S_j qd_j over the ancestors-or-self (which are in the joint's block,
+  // from its root on). The entries go as the terms above: entry t / n of body t % n.
   const int inertia_items = (w.I_joint ? 72 : 36) * n;
   g.for_each(inertia_items + 6 * n, [&](int t) {
     if (t >= inertia_items) {
       const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
       S s = S(0);
-      for (int j = 0; j <= i; ++j)
+      for (int j = m.root_of[i]; j <= i; ++j)
         if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
       w.v[v_item] = s;
       return;
     }
-    const int i = w.I_joint ? t / 72 : t / 36;
-    const int local = w.I_joint ? t % 72 : t % 36;
+    const int local = by_n.quotient(t), i = t - local * n;
     const bool joint_point = local >= 36;
     const int e = local % 36, r = e / 6, k = e % 6;
     const S mass = m.mass[i];
@@ -300,7 +301,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     } else {
       value = r == k ? mass : S(0);
     }
-    (joint_point ? w.I_joint : w.I)[36 * i + e] = value;
+    if (joint_point) w.I_joint[36 * i + e] = value;
+    else w.I[kBodyMatrixStride * i + e] = value;
   });
   g.sync();
   // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and h = I v (kept in F
@@ -315,12 +317,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
     S s = gravity_at(m, c);
-    for (int j = 0; j <= i; ++j)
+    for (int j = m.root_of[i]; j <= i; ++j)
       if (m.contains(j, i)) s += w.alpha[6 * j + c] * w.qd[j];
     w.a[t] = s;
   });
   g.sync();
-  // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry
+  // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry (entry
+  // e of body i at item 6 n + e n + i, as the inertias)
   g.for_each(42 * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
@@ -328,9 +331,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
-    const int e = t - 6 * n, i = e / 36, r = (e % 36) / 6, c = e % 6;
+    const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n, r = e / 6, c = e % 6;
     const S* v = w.v + 6 * i;
-    const S* I = w.I + 36 * i;
+    const S* I = w.I + kBodyMatrixStride * i;
     // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I, stride 6
     S value = cross_force_at(v, 1, I + c, 6, r) + cross_force_at(v, 1, I + r, 6, c);
     const S* h = w.F + 6 * i;
@@ -338,25 +341,25 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
     else if (r < 3) value -= block::skew_at(h + 3, r, c - 3);
     else if (c < 3) value -= block::skew_at(h + 3, r - 3, c);
-    w.B[e] = value;
+    w.B[kBodyMatrixStride * i + e] = value;
   });
   g.sync();
   // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc, F
   g.for_each(78 * n, [&](int t) {
     const S* from;
     S* to;
-    int per, e;
+    int per, stride, e;
     if (t < 36 * n) {
-      from = w.I, to = w.Ic, per = 36, e = t;
+      from = w.I, to = w.Ic, per = 36, stride = kBodyMatrixStride, e = t;
     } else if (t < 72 * n) {
-      from = w.B, to = w.Bc, per = 36, e = t - 36 * n;
+      from = w.B, to = w.Bc, per = 36, stride = kBodyMatrixStride, e = t - 36 * n;
     } else {
-      from = w.f, to = w.F, per = 6, e = t - 72 * n;
+      from = w.f, to = w.F, per = 6, stride = 6, e = t - 72 * n;
     }
     const int i = e / per, x = e % per;
-    S s = from[e];
-    for (int j = i + 1; j < m.subtree_end[i]; ++j) s += from[per * j + x];
-    to[e] = s;
+    S s = from[stride * i + x];
+    for (int j = i + 1; j < m.subtree_end[i]; ++j) s += from[stride * j + x];
+    to[stride * i + x] = s;
   });
   g.sync();
   // per body: Ic S, Bc^T S, E = 2 Ic alpha + Bc S; c = tau(qdd = 0) = S . F
@@ -400,44 +403,74 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (b.tau_input) block_articulated_body(m, w, fext != nullptr, g);
   }
 
-  // M^-1 by exchange (Gauss-Jordan) steps, every entry of a step in parallel, between M and Minv.
-  // The pivots go leaves first, as the core's factorization M = L^T D L does: the pivot of joint
-  // k is then D[k] (the Schur complement of the joints after it), so a state fails at the same
-  // joint for the same reason (factorize_mass_matrix).
+  // M^-1 by exchange (Gauss-Jordan) steps, in place in M. The pivots go leaves first, as the
+  // core's factorization M = L^T D L does: the pivot of joint k is then D[k] (the Schur complement
+  // of the joints after it), so a state fails at the same joint for the same reason
+  // (factorize_mass_matrix).
+  // M is block diagonal over the roots' subtrees (ModelView::root_of), and so is M^-1: each step
+  // runs within the blocks, the blocks' steps side by side (step s takes each block's (s+1)-th
+  // joint from its end as pivot), and the entries between blocks stay zero. The steps' pivot rows
+  // and columns are kept aside (snapshots, taken in the step before) so that every entry is
+  // updated in place with one sync a step. A thread takes a segment of one row: the row's block
+  // bounds and the pivot's reciprocal once for its entries.
   // The pivots are kept (in B, free since the subtree sums) and checked once after the steps, in
   // pivot order: a check inside each step would sit on every step's critical path.
-  S* inverse = w.M;
+  S* const inverse = w.M;
   S* const pivots = w.B;
+  auto block_begin = [&](int i) { return m.root_of[i]; };
+  auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
   if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
-    g.for_each(n * n, [&](int t) { w.Minv[t] = static_cast<S>(minv[t]); });
+    g.for_each(n * n, [&](int t) { inverse[t] = static_cast<S>(minv[t]); });
     g.sync();
-    inverse = w.Minv;
   } else {
-    S* other = w.Minv;
-    for (int pv = n - 1; pv >= 0; --pv) {
-      const S* A = inverse;
-      const S r = S(1) / A[pv * n + pv];
-      g.for_each(n * n, [&](int t) {
-        const int i = by_n.quotient(t), j = t - i * n;
-        S x;
-        if (i == pv && j == pv) {
-          pivots[pv] = A[t];
-          x = r;
-        } else if (i == pv) {
-          x = -A[pv * n + j] * r;
-        } else if (j == pv) {
-          x = A[i * n + pv] * r;
-        } else {
-          x = A[t] - A[i * n + pv] * r * A[pv * n + j];
+    // the snapshots: pivot row and column of each block's step, per joint (the blocks' index
+    // ranges are disjoint), two of each so that a step writes the next one's
+    S* const snapshot_row = w.B + n;
+    S* const snapshot_col = w.B + 3 * n;
+    g.for_each(n, [&](int i) {
+      const int last = block_end(i) - 1;
+      snapshot_row[i] = w.M[last * n + i];
+      snapshot_col[i] = w.M[i * n + last];
+    });
+    int steps = 0;
+    for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
+      const int root = m.level_joints[k];
+      const int size = m.subtree_end[root] - root;
+      if (size > steps) steps = size;
+    }
+    g.sync();
+    const int segments = g.size > n ? g.size / n : 1;  // threads a row
+    for (int step = 0; step < steps; ++step) {
+      const S* const row = snapshot_row + (step & 1) * n;
+      const S* const col = snapshot_col + (step & 1) * n;
+      S* const next_row = snapshot_row + ((step + 1) & 1) * n;
+      S* const next_col = snapshot_col + ((step + 1) & 1) * n;
+      g.for_each(n * segments, [&](int t) {
+        const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
+        if (pv < first) return;  // the block's steps are done
+        const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
+        S* const Ai = inverse + i * n;
+        for (int j = first + by_n.quotient(t); j < end; j += segments) {
+          const S a_pj = row[j];
+          S x;
+          if (i == pv && j == pv) {
+            pivots[pv] = pivot;
+            x = r;
+          } else if (i == pv) {
+            x = -a_pj * r;
+          } else if (j == pv) {
+            x = a_ip * r;
+          } else {
+            x = Ai[j] - a_ip * r * a_pj;
+          }
+          Ai[j] = x;
+          if (i == pv - 1) next_row[j] = x;
+          if (j == pv - 1) next_col[i] = x;
         }
-        other[t] = x;
       });
       g.sync();
-      S* const result = other;
-      other = inverse;
-      inverse = result;
     }
   }
   if (!minv_supplied && g.rank == 0 && *w.status == 0) {
@@ -448,12 +481,16 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       if (*w.status != 0) break;
     }
   }
+  // the columns of M^-1 that row i of a product with it needs: row i's block, or every column
+  // for a caller's M^-1 (whose entries between blocks are the caller's)
+  auto inverse_begin = [&](int i) { return minv_supplied ? 0 : block_begin(i); };
+  auto inverse_end = [&](int i) { return minv_supplied ? n : block_end(i); };
   if constexpr (!SinglePrecision<S>::value) {
     // f64: qdd = M^-1 (tau - c)
     if (b.tau_input) {
       g.for_each(n, [&](int i) {
         S s = S(0);
-        for (int j = 0; j < n; ++j) s += inverse[i * n + j] * (w.u[j] - w.c[j]);
+        for (int j = inverse_begin(i); j < inverse_end(i); ++j) s += inverse[i * n + j] * (w.u[j] - w.c[j]);
         w.qdd[i] = s;
       });
       g.sync();
@@ -465,7 +502,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
       S s = S(0);
-      for (int j = 0; j <= i; ++j)
+      for (int j = m.root_of[i]; j <= i; ++j)
         if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
       w.a_qdd[t] = s;
     });
@@ -526,8 +563,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const bool dq = t < n + dq_items;
       const int e = dq ? t - n : t - n - dq_items, i = by_n.quotient(e), j = e - i * n;
       const S* dtau = dq ? w.dtau_dq : w.dtau_dqd;
+      // column j of d tau/d u is zero outside j's block, and so is row i of M^-1 computed here
+      const int first = block_begin(j), end = block_end(j);
       S s = S(0);
-      for (int r = 0; r < n; ++r) s += inverse[i * n + r] * dtau[r * n + j];
+      if (minv_supplied || block_begin(i) == first)
+        for (int r = first; r < end; ++r) s += inverse[i * n + r] * dtau[r * n + j];
       x = -s;
       out = dq ? out_dq : out_dqd;
       at = state * mat + e;

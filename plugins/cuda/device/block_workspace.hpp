@@ -8,6 +8,11 @@
 
 namespace rbdgrad::cuda {
 
+// Scalars from one body's 6x6 matrix (row-major) to the next: 36 and one of padding, so that the
+// lanes of a warp that take the same entry of consecutive bodies hit different shared-memory
+// banks (at 36 doubles apart, 8 lanes share a bank).
+inline constexpr int kBodyMatrixStride = 37;
+
 template <class S>
 struct BlockWorkspace {
   // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
@@ -18,11 +23,11 @@ struct BlockWorkspace {
   // motion due to qdd, body force (qdd = 0), subtree force, body force due to qdd, total subtree
   // force, Ic S, Bc^T S, 2 Ic alpha + Bc S, the d tau/d q column term, external force (world)
   S *axis, *v, *alpha, *a, *beta, *a_qdd, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
-  // per body 6x6 (row-major): inertia at the world origin, its B operator, and their subtree sums
+  // per body 6x6 (row-major, kBodyMatrixStride apart): inertia at the world origin, its B
+  // operator, and their subtree sums
   S *I, *B, *Ic, *Bc;
-  // nv x nv row-major: M, d tau/d q, d tau/d qd, and the other buffer of the inversion (M^-1 ends
-  // in M or here, by the parity of nv)
-  S *M, *dtau_dq, *dtau_dqd, *Minv;
+  // nv x nv row-major: M (M^-1 after the inversion, in place, or the caller's), d tau/d q, d tau/d qd
+  S *M, *dtau_dq, *dtau_dqd;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
   // U = IA S, c = alpha qd about the joint point, acceleration, d = S^T U and u = tau - S^T pA
@@ -33,7 +38,7 @@ struct BlockWorkspace {
   // scalars of S per state
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    return (5 + 24 + 90 + 144 + (with_aba ? 140 : 0)) * n + 4 * n * n + kStatusScalars;
+    return (5 + 24 + 90 + 4 * kBodyMatrixStride + (with_aba ? 140 : 0)) * n + 3 * n * n + kStatusScalars;
   }
 
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : next_(base) {
@@ -48,8 +53,8 @@ struct BlockWorkspace {
     S** const sixes[] = {&axis, &v, &alpha, &a, &beta, &a_qdd, &f, &F, &f_qdd, &F_total, &Ic_S, &Bc_t_S, &E, &Dq, &f_ext};
     for (S** x : sixes) *x = take(6 * n);
     S** const inertias[] = {&I, &B, &Ic, &Bc};
-    for (S** x : inertias) *x = take(36 * n);
-    S** const matrices[] = {&M, &dtau_dq, &dtau_dqd, &Minv};
+    for (S** x : inertias) *x = take(kBodyMatrixStride * n);
+    S** const matrices[] = {&M, &dtau_dq, &dtau_dqd};
     for (S** x : matrices) *x = take(n * n);
     if (with_aba) {
       I_joint = take(36 * n);

@@ -13,6 +13,10 @@ struct ModelView {
   const int* parent = nullptr;        // (nv) parent joint, -1 for the world; parent[i] < i
   const int* subtree_end = nullptr;   // (nv) one past the last joint of joint i's subtree
   const int* prismatic = nullptr;     // (nv) 1 prismatic along z, 0 revolute about z
+  // (nv) the root of joint i's tree: the roots' subtrees do not couple, so M, M^-1 and the
+  // inverse-dynamics derivatives are block diagonal over them (a fixed-base humanoid's legs and
+  // torso); row i's block is [root_of[i], subtree_end[root_of[i]])
+  const int* root_of = nullptr;
   // the joints level by level from the roots (depth 1), in index order within a level:
   // level L is level_joints[level_start[L] .. level_start[L + 1]); the block kernel's passes that
   // are serial over the tree (articulated-body) go a level at a time
@@ -109,7 +113,7 @@ struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;
-  static constexpr int kIntsPerJoint = 5;
+  static constexpr int kIntsPerJoint = 6;
   static RBDGRAD_HD int scalars(int nv) { return kScalarsPerJoint * nv; }
   // level_start has at most nv + 1 entries
   static RBDGRAD_HD int ints(int nv) { return kIntsPerJoint * nv + 1; }
@@ -123,8 +127,9 @@ RBDGRAD_HD ModelView<S> model_view(int nv, int levels, const S* scalars, const i
   m.parent = ints;
   m.subtree_end = ints + nv;
   m.prismatic = ints + 2 * nv;
-  m.level_joints = ints + 3 * nv;
-  m.level_start = ints + 4 * nv;
+  m.root_of = ints + 3 * nv;
+  m.level_joints = ints + 4 * nv;
+  m.level_start = ints + 5 * nv;
   m.levels = levels;
   m.joint_rotation = scalars;
   m.joint_translation = m.joint_rotation + 9 * nv;

@@ -1,8 +1,8 @@
 // The threads that share one state in the block kernel (Algorithm 4 of paper 000): `size` threads
 // of which this is `rank`. A pass over independent work items is for_each(); sync() separates
-// passes that read what an earlier one wrote. Compiled as plain C++ (the host tests), a group is
-// one thread: for_each runs the items in order and sync() does nothing, which computes the same
-// values, since no item of a pass reads what another item of the same pass writes.
+// passes that read what an earlier one wrote. Compiled as plain C++ (the host tests), one thread
+// runs the whole group: for_each runs all items in order and sync() does nothing, which computes
+// the same values, since no item of a pass reads what another item of the same pass writes.
 #pragma once
 
 #include "spatial.hpp"
@@ -43,12 +43,16 @@ struct ThreadGroup {
   template <class F>
   RBDGRAD_HD void for_each(int count, F&& f) const {
 #if !defined(__CUDA_ARCH__)
+    // the whole group's items, one after another: size only shapes the items (a pass may give
+    // each thread a segment of a row)
     if (reverse) {
       for (int item = count - 1; item >= 0; --item) f(item);
-      return;
+    } else {
+      for (int item = 0; item < count; ++item) f(item);
     }
-#endif
+#else
     for (int item = rank; item < count; item += size) f(item);
+#endif
   }
 };
 

@@ -1,9 +1,10 @@
 // Tests for plugins/cuda/device/block_fused_state.hpp (the block kernel's math: one state on a
-// group of threads) compiled as plain C++ and run on the CPU as a group of one thread: against
+// group of threads) compiled as plain C++ and run on the CPU by one thread: against
 // the core library for every embedded robot and a random tree with prismatic joints, f64 and f32,
 // both input kinds, every output case the block kernel takes. Each case also runs with the items
-// of every pass in reverse order: the results must not change, which shows that no item of a pass
-// depends on another (on the GPU, such a dependency would be a race).
+// of every pass in reverse order and as the GPU's group of 256 threads: the results must not
+// change, which shows that no item of a pass depends on another (on the GPU, such a dependency
+// would be a race) and that the items a group's size shapes cover the same entries.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -37,6 +38,8 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   b.status = status.data();
   cuda::ThreadGroup g;
   g.reverse = reverse;
+  // reversed, as the GPU's group of 256 threads, which gives a pass more items (row segments)
+  if (reverse) g.size = 256;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
     cuda::block_evaluate_state<S, Model, S, kStages>(m, w, b, k, true, g);
@@ -66,7 +69,7 @@ void check_robot(const std::string& robot) {
       run_block_on_host(model, reversed, c, tau_input, true);
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(a.out[f].data(), reversed.out[f].data(), a.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " changed with the items in reverse order";
+            << where << ": output " << Comparison::plugin_output_name(f) << " changed with the items in reverse order, as 256 threads";
     }
   }
 }
@@ -111,6 +114,30 @@ TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
   check_fixed_sizes<float, 7, 7>("iiwa14");
   check_fixed_sizes<double, 12, 3>("hyq");
   check_fixed_sizes<float, 12, 3>("hyq");
+}
+
+// The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's
+// root is a root and holds the joint in its subtree, and the roots' subtrees cover the joints in
+// order. The humanoid's fixed base splits it into its two legs and its torso with arms and head.
+TEST(BlockStateOnHost, RootsSplitTheJointsIntoBlocks) {
+  for (const char* robot : {"iiwa14", "panda", "talos_reduced", "hyq", "random_tree"}) {
+    const Model model = robot_model(robot);
+    const cuda::FlatModel<double> flat(model);
+    const cuda::ModelView<double> m = flat.host_view();
+    std::vector<int> block_sizes;
+    for (int i = 0; i < m.nv; ++i) {
+      const int root = m.root_of[i];
+      ASSERT_EQ(m.parent[root], -1) << robot << " joint " << i;
+      ASSERT_TRUE(m.contains(root, i)) << robot << " joint " << i;
+      if (root == i) block_sizes.push_back(m.subtree_end[i] - i);
+      else ASSERT_EQ(root, m.root_of[i - 1]) << robot << " joint " << i << ": a block is a contiguous range";
+    }
+    int covered = 0;
+    for (int size : block_sizes) covered += size;
+    EXPECT_EQ(covered, m.nv) << robot;
+    if (std::string(robot) == "talos_reduced") EXPECT_EQ(block_sizes, (std::vector<int>{6, 6, 20}));
+    if (std::string(robot) == "iiwa14") EXPECT_EQ(block_sizes, (std::vector<int>{7}));
+  }
 }
 
 TEST(BlockStateOnHost, FixedDividerIsExact) {
