@@ -369,7 +369,8 @@ const bool registered = [] {
         if (chunks != 1) continue;
         add<float>("cuda_pipeline", robot, n, pipeline(chunks, false));
         add<double>("cuda_pipeline", robot, n, pipeline(chunks, false));
-        // the block kernel (talos_reduced's) with twice its threads per state, one launch
+        // the block kernel with twice its threads per state, one launch (talos_reduced's: iiwa14
+        // runs the warp kernel, which the shape does not change)
         if (n != 65536) continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
