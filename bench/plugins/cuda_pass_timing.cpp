@@ -1,7 +1,8 @@
 // Where the block kernel's time goes for one state: the SM clock at the kernel's entry, after its
 // prologue (inputs and constants into shared memory) and after every pass (sync) of state 0's
 // thread group, in a build with RBDGRAD_CUDA_PASS_TIMING=ON (the passes are then timed, the
-// kernel is otherwise the same). The warp kernel the same way, at the end of each of its stages
+// kernel is otherwise the same; the kernels compiled into the plugin for any robot, not those
+// NVRTC compiles for it). The warp kernel the same way, at the end of each of its stages
 // (WarpLanes::stamp). Prints, per kernel, robot and precision, the cycles of each pass and their
 // sum, the median over repeated launches of a small batch. Needs a GPU.
 #include <cuda_runtime_api.h>
@@ -40,6 +41,9 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
   rbdgrad::cuda::KernelOptions options;
   options.time_kernel = true;
   options.warp_kernel = warp;
+  // the kernels compiled into the plugin, which this build times: those NVRTC compiles for the
+  // robot at load have no clocks
+  options.robot_specific = false;
   if (!mapped_io) options.mapped_io_max_kib = 0;
   if (!instance->set_kernel_options(options)) return 1;
   const std::size_t v = n * static_cast<std::size_t>(model.nv);
@@ -70,8 +74,9 @@ int run(const std::string& robot, std::uint32_t precision, std::size_t n, double
       std::printf("%s\n", s.to_string().c_str());
       return 1;
     }
-    if (!instance->last_used_block_kernel() || instance->last_used_warp_kernel() != warp) {
-      std::printf("the %s kernel did not run\n", warp ? "warp" : "block");
+    if (!instance->last_used_block_kernel() || instance->last_used_warp_kernel() != warp ||
+        instance->last_used_robot_specific_kernel()) {
+      std::printf("the %s kernel compiled into the plugin did not run\n", warp ? "warp" : "block");
       return 1;
     }
     const cudaError_t read = warp ? rbdgrad::cuda::read_warp_stage_clocks(clocks.data(), kWarpClocks)
