@@ -369,9 +369,9 @@ const bool registered = [] {
         if (chunks != 1) continue;
         add<float>("cuda_pipeline", robot, n, pipeline(chunks, false));
         add<double>("cuda_pipeline", robot, n, pipeline(chunks, false));
-        // the block kernel with twice its threads per state, one launch (talos_reduced's: iiwa14
-        // runs the warp kernel, which the shape does not change)
-        if (n != 65536) continue;
+        // talos_reduced's block kernel with twice its threads per state, one launch (iiwa14 runs
+        // the warp kernel, which the shape does not change)
+        if (n != 65536 || std::string(robot) != "talos_reduced") continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
       }
