@@ -67,6 +67,14 @@ RBDGRAD_HD S col_dot(const S* base, int i, int k, const S* x) {
   for (int r = 1; r < 6; ++r) s += col[6 * r] * x[r];
   return s;
 }
+// (A x)_k of a symmetric A at body i of `base` (its upper triangle, kSymmetricStride apart)
+template <class S>
+RBDGRAD_HD S symmetric_row_dot(const S* base, int i, int k, const S* x) {
+  const S* A = base + kSymmetricStride * i;
+  S s = A[symmetric_index(k, 0)] * x[0];
+  for (int c = 1; c < 6; ++c) s += A[symmetric_index(k, c)] * x[c];
+  return s;
+}
 template <class S>
 RBDGRAD_HD S dot6(const S* a, const S* b) {
   S s = a[0] * b[0];
@@ -114,6 +122,17 @@ template <class S>
 RBDGRAD_HD S cross_force_at(const S* m, int sm, const S* f, int sf, int c) {
   if (c < 3) return cross3_at(m, sm, f, sf, c) + cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, c);
   return cross3_at(m, sm, f + 3 * sf, sf, c - 3);
+}
+// (m x* A(:, k))_c of a symmetric A (its upper triangle at A), as cross_force_at on a column
+template <class S>
+RBDGRAD_HD S cross_force_column_at(const S* m, const S* A, int k, int c) {
+  auto col = [&](int r) { return A[symmetric_index(r, k)]; };
+  auto cross3 = [&](int mo, int fo, int r) {
+    const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+    return m[mo + r1] * col(fo + r2) - m[mo + r2] * col(fo + r1);
+  };
+  if (c < 3) return cross3(0, 0, c) + cross3(3, 3, c);
+  return cross3(0, 3, c - 3);
 }
 // skew(x)(row, col)
 template <class S>
@@ -284,6 +303,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     const int local = by_n.quotient(t), i = t - local * n;
     const bool joint_point = local >= 36;
     const int e = local % 36, r = e / 6, k = e % 6;
+    if (!joint_point && r > k) return;  // I is symmetric: its upper triangle
     const S mass = m.mass[i];
     S c[3];
     for (int x = 0; x < 3; ++x) c[x] = com_w[3 * i + x] + (joint_point ? S(0) : w.p[3 * i + x]);
@@ -302,7 +322,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       value = r == k ? mass : S(0);
     }
     if (joint_point) w.I_joint[36 * i + e] = value;
-    else w.I[kBodyMatrixStride * i + e] = value;
+    else w.I[kSymmetricStride * i + symmetric_index(r, k)] = value;
   });
   g.sync();
   // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and h = I v (kept in F
@@ -310,7 +330,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
     w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
-    w.F[t] = row_dot(w.I, i, c, w.v + 6 * i);
+    w.F[t] = block::symmetric_row_dot(w.I, i, c, w.v + 6 * i);
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
@@ -327,15 +347,15 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(42 * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
-      const S Ia = row_dot(w.I, i, c, w.a + 6 * i);
+      const S Ia = block::symmetric_row_dot(w.I, i, c, w.a + 6 * i);
       w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
     const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n, r = e / 6, c = e % 6;
     const S* v = w.v + 6 * i;
-    const S* I = w.I + kBodyMatrixStride * i;
-    // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I, stride 6
-    S value = cross_force_at(v, 1, I + c, 6, r) + cross_force_at(v, 1, I + r, 6, c);
+    const S* I = w.I + kSymmetricStride * i;
+    // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I
+    S value = block::cross_force_column_at(v, I, c, r) + block::cross_force_column_at(v, I, r, c);
     const S* h = w.F + 6 * i;
     // - hn x in the top-left block, - hf x in the two off-diagonal blocks
     if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
@@ -345,16 +365,16 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   });
   g.sync();
   // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc, F
-  g.for_each(78 * n, [&](int t) {
+  g.for_each(63 * n, [&](int t) {
     const S* from;
     S* to;
     int per, stride, e;
-    if (t < 36 * n) {
-      from = w.I, to = w.Ic, per = 36, stride = kBodyMatrixStride, e = t;
-    } else if (t < 72 * n) {
-      from = w.B, to = w.Bc, per = 36, stride = kBodyMatrixStride, e = t - 36 * n;
+    if (t < 21 * n) {
+      from = w.I, to = w.Ic, per = 21, stride = kSymmetricStride, e = t;
+    } else if (t < 57 * n) {
+      from = w.B, to = w.Bc, per = 36, stride = kBodyMatrixStride, e = t - 21 * n;
     } else {
-      from = w.f, to = w.F, per = 6, stride = 6, e = t - 72 * n;
+      from = w.f, to = w.F, per = 6, stride = 6, e = t - 57 * n;
     }
     const int i = e / per, x = e % per;
     S s = from[stride * i + x];
@@ -371,31 +391,21 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
     const int i = t / 6, c = t % 6;
     const S* Si = w.axis + 6 * i;
-    w.Ic_S[t] = row_dot(w.Ic, i, c, Si);
+    w.Ic_S[t] = block::symmetric_row_dot(w.Ic, i, c, Si);
     w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
-    if (want_dqd) w.E[t] = S(2) * row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
+    if (want_dqd) w.E[t] = S(2) * block::symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
   });
   g.sync();
-  // M and d tau/d qd entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry
-  // in row a and row b's entry in column a; entries of unrelated joints are zero
+  // M entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry in row a and row
+  // b's entry in column a; entries of unrelated joints are zero
   g.for_each(n * n, [&](int t) {
     const int a = by_n.quotient(t), bb = t - a * n;
     if (m.contains(a, bb)) {
-      const S* Sa = w.axis + 6 * a;
-      const S mass = dot6(Sa, w.Ic_S + 6 * bb);
+      const S mass = dot6(w.axis + 6 * a, w.Ic_S + 6 * bb);
       w.M[a * n + bb] = mass;
       w.M[bb * n + a] = mass;
-      if (!want_dqd) return;
-      w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
-      if (a != bb) {
-        Vec6<S> u2;
-        for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
-        w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
-      }
     } else if (!m.contains(bb, a)) {
       w.M[t] = S(0);
-      w.dtau_dqd[t] = S(0);
-      w.dtau_dq[t] = S(0);
     }
   });
   g.sync();
@@ -497,6 +507,49 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   }
 
+  // d qdd/d u = -M^-1 dc'/du, every entry in parallel; each thread writes its own entries
+  // (consecutive items, consecutive addresses) and flags what is not finite. Column j of
+  // d tau/d u is zero outside j's block, and so is row i of M^-1 computed here.
+  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
+  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
+  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
+  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
+  auto minus_product = [&](const S* dtau, int e) {
+    const int i = by_n.quotient(e), j = e - i * n, first = block_begin(j), end = block_end(j);
+    S s = S(0);
+    if (minv_supplied || block_begin(i) == first)
+      for (int r = first; r < end; ++r) s += inverse[i * n + r] * dtau[r * n + j];
+    return -s;
+  };
+  auto write = [&](S x, IO* out, std::uint64_t at) {
+    const IO y = static_cast<IO>(x);
+    if (!is_finite(y)) *w.not_finite = 1;
+    if (out) out[at] = y;
+  };
+
+  // d tau/d qd entry by entry (after the inversion: it shares its matrix with d tau/d q), as M:
+  // (a, b) with a ancestor-or-self of b gives column b's entry in row a and row b's entry in
+  // column a; then its product with M^-1
+  if (want_dqd) {
+    g.for_each(n * n, [&](int t) {
+      const int a = by_n.quotient(t), bb = t - a * n;
+      if (m.contains(a, bb)) {
+        const S* Sa = w.axis + 6 * a;
+        w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
+        if (a != bb) {
+          Vec6<S> u2;
+          for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
+          w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
+        }
+      } else if (!m.contains(bb, a)) {
+        w.dtau_dqd[t] = S(0);
+      }
+    });
+    g.sync();
+    g.for_each(n * n, [&](int e) { write(minus_product(w.dtau_dqd, e), out_dqd, state * mat + e); });
+    g.sync();
+  }
+
   // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
   if (want_dq) {
     g.for_each(6 * n, [&](int t) {
@@ -515,7 +568,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
       if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
       w.beta[t] = beta;
-      w.f_qdd[t] = row_dot(w.I, i, c, w.a_qdd + 6 * i);
+      w.f_qdd[t] = block::symmetric_row_dot(w.I, i, c, w.a_qdd + 6 * i);
     });
     g.sync();
     g.for_each(6 * n, [&](int t) {
@@ -528,58 +581,30 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
-      w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) + row_dot(w.Ic, i, c, w.beta + 6 * i) +
-                row_dot(w.Bc, i, c, w.alpha + 6 * i);
+      w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) +
+                block::symmetric_row_dot(w.Ic, i, c, w.beta + 6 * i) + row_dot(w.Bc, i, c, w.alpha + 6 * i);
     });
     g.sync();
     g.for_each(n * n, [&](int t) {
       const int a = by_n.quotient(t), bb = t - a * n;
-      if (!m.contains(a, bb)) return;
-      w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
-      if (a != bb)
-        w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
+      if (m.contains(a, bb)) {
+        w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
+        if (a != bb)
+          w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
+      } else if (!m.contains(bb, a)) {
+        w.dtau_dq[t] = S(0);
+      }
     });
     g.sync();
   }
 
-  // d qdd/d u = -M^-1 dc'/du and the other outputs, every entry in parallel; each thread writes
-  // its own entries (consecutive items, consecutive addresses) and flags what is not finite
-  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
-  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
-  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
-  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
+  // the other outputs: qdd, then the d/dq entries and M^-1 of the stages that ran
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  // items: qdd, then the d/dq entries, the d/dqd entries and M^-1 of the stages that ran
-  const int dq_items = want_dq ? n * n : 0, derivative_items = dq_items + (want_dqd ? n * n : 0);
-  g.for_each(n + derivative_items + (want_minv ? n * n : 0), [&](int t) {
-    S x;
-    IO* out;
-    std::uint64_t at;
-    if (t < n) {
-      x = w.qdd[t];
-      out = out_qdd;
-      at = state * vec + t;
-    } else if (t < n + derivative_items) {
-      const bool dq = t < n + dq_items;
-      const int e = dq ? t - n : t - n - dq_items, i = by_n.quotient(e), j = e - i * n;
-      const S* dtau = dq ? w.dtau_dq : w.dtau_dqd;
-      // column j of d tau/d u is zero outside j's block, and so is row i of M^-1 computed here
-      const int first = block_begin(j), end = block_end(j);
-      S s = S(0);
-      if (minv_supplied || block_begin(i) == first)
-        for (int r = first; r < end; ++r) s += inverse[i * n + r] * dtau[r * n + j];
-      x = -s;
-      out = dq ? out_dq : out_dqd;
-      at = state * mat + e;
-    } else {
-      const int e = t - n - derivative_items;
-      x = inverse[e];
-      out = out_minv;
-      at = state * mat + e;
-    }
-    const IO y = static_cast<IO>(x);
-    if (!is_finite(y)) *w.not_finite = 1;
-    if (out) out[at] = y;
+  const int dq_items = want_dq ? n * n : 0;
+  g.for_each(n + dq_items + (want_minv ? n * n : 0), [&](int t) {
+    if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
+    else if (t < n + dq_items) write(minus_product(w.dtau_dq, t - n), out_dq, state * mat + (t - n));
+    else write(inverse[t - n - dq_items], out_minv, state * mat + (t - n - dq_items));
   });
   g.sync();
   if (g.rank == 0 && active) {

@@ -12,7 +12,19 @@ namespace rbdgrad::cuda {
 // lanes of a warp that take the same entry of consecutive bodies hit different shared-memory
 // banks (at 36 doubles apart, 8 lanes share a bank).
 inline constexpr int kBodyMatrixStride = 37;
+// A symmetric 6x6 matrix (the inertias) as its upper triangle, row by row: 21 scalars a body (at
+// 21 doubles apart, a warp's lanes hit different banks too).
+inline constexpr int kSymmetricStride = 21;
+RBDGRAD_HD constexpr int symmetric_index(int r, int c) {
+  return r <= c ? r * 6 - r * (r - 1) / 2 + (c - r) : c * 6 - c * (c - 1) / 2 + (r - c);
+}
 
+// The arrays whose lifetimes do not overlap share memory, so that three states of talos_reduced
+// fit an SM's shared memory (at most 66 KiB of working set each): f and E sit where the local
+// placements were (dead after the inertias), the external forces where Bc will be (without the
+// articulated-body pass, which reads them later), the d/dq stage's vectors in B after the inversion's
+// pivots (B is dead after the subtree sums), and d tau/d qd and d tau/d q share one matrix (each
+// product with M^-1 follows its own).
 template <class S>
 struct BlockWorkspace {
   // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
@@ -23,10 +35,11 @@ struct BlockWorkspace {
   // motion due to qdd, body force (qdd = 0), subtree force, body force due to qdd, total subtree
   // force, Ic S, Bc^T S, 2 Ic alpha + Bc S, the d tau/d q column term, external force (world)
   S *axis, *v, *alpha, *a, *beta, *a_qdd, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
-  // per body 6x6 (row-major, kBodyMatrixStride apart): inertia at the world origin, its B
-  // operator, and their subtree sums
+  // per body: the inertia at the world origin and its subtree sum (symmetric, kSymmetricStride
+  // apart), the B operator and its subtree sum (6x6 row-major, kBodyMatrixStride apart)
   S *I, *B, *Ic, *Bc;
-  // nv x nv row-major: M (M^-1 after the inversion, in place, or the caller's), d tau/d q, d tau/d qd
+  // nv x nv row-major: M (M^-1 after the inversion, in place, or the caller's); d tau/d qd, then
+  // d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
@@ -35,10 +48,15 @@ struct BlockWorkspace {
   // state_status of the state (0 = computed so far), and a flag set when an output is not finite
   std::uint32_t *status, *not_finite;
 
+  // the scalars before the d/dq stage's vectors in B: the inversion's pivots and snapshots
+  static constexpr int kInversionScalarsPerJoint = 5;
+  static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
+
   // scalars of S per state
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    return (5 + 24 + 90 + 4 * kBodyMatrixStride + (with_aba ? 140 : 0)) * n + 3 * n * n + kStatusScalars;
+    return (5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride + (with_aba ? 146 : 0)) * n + 2 * n * n +
+           kStatusScalars;
   }
 
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : next_(base) {
@@ -50,13 +68,20 @@ struct BlockWorkspace {
     p_local = take(3 * n);
     R = take(9 * n);
     p = take(3 * n);
-    S** const sixes[] = {&axis, &v, &alpha, &a, &beta, &a_qdd, &f, &F, &f_qdd, &F_total, &Ic_S, &Bc_t_S, &E, &Dq, &f_ext};
+    f = R_local;
+    E = R_local + 6 * n;
+    S** const sixes[] = {&axis, &v, &alpha, &a, &F, &Ic_S, &Bc_t_S};
     for (S** x : sixes) *x = take(6 * n);
-    S** const inertias[] = {&I, &B, &Ic, &Bc};
-    for (S** x : inertias) *x = take(kBodyMatrixStride * n);
-    S** const matrices[] = {&M, &dtau_dq, &dtau_dqd};
-    for (S** x : matrices) *x = take(n * n);
+    I = take(kSymmetricStride * n);
+    B = take(kBodyMatrixStride * n);
+    Ic = take(kSymmetricStride * n);
+    Bc = take(kBodyMatrixStride * n);
+    S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
+    for (int k = 0; k < 5; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
+    M = take(n * n);
+    dtau_dq = dtau_dqd = take(n * n);
     if (with_aba) {
+      f_ext = take(6 * n);
       I_joint = take(36 * n);
       IA = take(36 * n);
       to_parent = take(42 * n);
@@ -65,6 +90,7 @@ struct BlockWorkspace {
       aba_d = take(n);
       aba_u = take(n);
     } else {
+      f_ext = Bc;
       I_joint = IA = to_parent = pA = U = aba_c = aba_a = aba_d = aba_u = nullptr;
     }
     auto* flags = reinterpret_cast<std::uint32_t*>(take(kStatusScalars));
