@@ -39,7 +39,8 @@ inline Eigen::Matrix3d random_rotation(std::mt19937& rng) {
   return q.normalized().toRotationMatrix();
 }
 
-enum class TreeShape { kChain, kBranching };
+// kWide: a root with (n - 1) / 2 branches of two joints, so that two levels of the tree are wide.
+enum class TreeShape { kChain, kBranching, kWide };
 
 // A random tree of n moving joints in depth-first order: random joint placements and axes (the
 // joint frame's z), revolute or prismatic, masses 0.2-5 kg and valid random inertias.
@@ -55,6 +56,8 @@ inline Model random_model(unsigned seed, int n, TreeShape shape, bool with_prism
     int parent = -1;
     if (shape == TreeShape::kChain) {
       parent = i - 1;
+    } else if (shape == TreeShape::kWide) {
+      parent = i == 0 ? -1 : (i % 2 == 1 ? 0 : i - 1);
     } else if (!path.empty()) {
       std::uniform_int_distribution<int> pick(-1, static_cast<int>(path.size()) - 1);
       const int k = pick(rng);

@@ -191,7 +191,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
   const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
 
-  if (g.rank == 0) *w.status = *w.not_finite = 0;
+  if (g.rank == 0) *w.failed_pivot = *w.not_finite = 0;
   // the joint transforms in the parent frames
   g.for_each(n, [&](int i) {
     const S qi = w.q[i];
@@ -413,6 +413,68 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (b.tau_input) block_articulated_body(m, w, fext != nullptr, g);
   }
 
+  // M^-1 (in place in M, or the caller's), the inversion's pivots, and row i's block of M (below)
+  S* const inverse = w.M;
+  S* const pivots = w.B;
+  auto block_begin = [&](int i) { return m.root_of[i]; };
+  auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
+
+  // d qdd/d u = -M^-1 dc'/du, every entry in parallel (after the inversion); each thread writes
+  // its own entries (consecutive items, consecutive addresses) and flags what is not finite.
+  // Column j of d tau/d u is zero outside j's block, and so is row i of M^-1 computed here.
+  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
+  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
+  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
+  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
+  auto write = [&](S x, IO* out, std::uint64_t at) {
+    const IO y = static_cast<IO>(x);
+    if (!is_finite(y)) *w.not_finite = 1;
+    if (out) out[at] = y;
+  };
+  // -M^-1 dtau for rows 4 p .. 4 p + 3 of column j (item t = p n + j, so that a warp's lanes
+  // write consecutive entries of its rows): the four rows share each load of dtau, and their four
+  // sums are independent chains. A row outside j's block (M^-1 computed here) gives zero.
+  constexpr int kProductRows = 4;
+  const int product_items = (n + kProductRows - 1) / kProductRows * n;
+  auto minus_product_rows = [&](const S* dtau, int t, IO* out) {
+    const int p = by_n.quotient(t), j = t - p * n, first = block_begin(j), end = block_end(j);
+    const S* rows[kProductRows];
+    S s[kProductRows];
+    for (int k = 0; k < kProductRows; ++k) {
+      const int i = kProductRows * p + k;
+      rows[k] = inverse + (i < n ? i : n - 1) * n;
+      s[k] = S(0);
+    }
+    for (int r = first; r < end; ++r) {
+      const S x = dtau[r * n + j];
+      for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
+    }
+    for (int k = 0; k < kProductRows; ++k) {
+      const int i = kProductRows * p + k;
+      if (i >= n) break;
+      write(minv_supplied || block_begin(i) == first ? -s[k] : -S(0), out, state * mat + static_cast<std::uint64_t>(i) * vec + j);
+    }
+  };
+
+  // d tau/d qd entry by entry, as M: (a, b) with a ancestor-or-self of b gives column b's entry in
+  // row a and row b's entry in column a. In the pass before the inversion's steps (its matrix,
+  // which d tau/d q takes over later, is free then), its product with M^-1 in the pass after them.
+  auto fill_dtau_dqd = [&](int t) {
+    const int a = by_n.quotient(t), bb = t - a * n;
+    if (m.contains(a, bb)) {
+      const S* Sa = w.axis + 6 * a;
+      w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
+      if (a != bb) {
+        Vec6<S> u2;
+        for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
+        w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
+      }
+    } else if (!m.contains(bb, a)) {
+      w.dtau_dqd[t] = S(0);
+    }
+  };
+  const int dqd_fill_items = want_dqd ? n * n : 0;
+
   // M^-1 by exchange (Gauss-Jordan) steps, in place in M. The pivots go leaves first, as the
   // core's factorization M = L^T D L does: the pivot of joint k is then D[k] (the Schur complement
   // of the joints after it), so a state fails at the same joint for the same reason
@@ -423,26 +485,30 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // and columns are kept aside (snapshots, taken in the step before) so that every entry is
   // updated in place with one sync a step. A thread takes a segment of one row: the row's block
   // bounds and the pivot's reciprocal once for its entries.
-  // The pivots are kept (in B, free since the subtree sums) and checked once after the steps, in
-  // pivot order: a check inside each step would sit on every step's critical path.
-  S* const inverse = w.M;
-  S* const pivots = w.B;
-  auto block_begin = [&](int i) { return m.root_of[i]; };
-  auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
+  // The pivots are kept (in B, free since the subtree sums); the thread that meets one that is not
+  // positive flags it (group_max: the core's order checks the last joint first), and the state's
+  // status is set once at the end, so that no serial check sits on the steps' critical path.
   if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
-    g.for_each(n * n, [&](int t) { inverse[t] = static_cast<S>(minv[t]); });
+    g.for_each(n * n + dqd_fill_items, [&](int t) {
+      if (t < n * n) inverse[t] = static_cast<S>(minv[t]);
+      else fill_dtau_dqd(t - n * n);
+    });
     g.sync();
   } else {
     // the snapshots: pivot row and column of each block's step, per joint (the blocks' index
     // ranges are disjoint), two of each so that a step writes the next one's
     S* const snapshot_row = w.B + n;
     S* const snapshot_col = w.B + 3 * n;
-    g.for_each(n, [&](int i) {
-      const int last = block_end(i) - 1;
-      snapshot_row[i] = w.M[last * n + i];
-      snapshot_col[i] = w.M[i * n + last];
+    g.for_each(n + dqd_fill_items, [&](int t) {
+      if (t >= n) {
+        fill_dtau_dqd(t - n);
+        return;
+      }
+      const int last = block_end(t) - 1;
+      snapshot_row[t] = w.M[last * n + t];
+      snapshot_col[t] = w.M[t * n + last];
     });
     int steps = 0;
     for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
@@ -467,6 +533,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           S x;
           if (i == pv && j == pv) {
             pivots[pv] = pivot;
+            if (!(is_finite(pivot) && pivot > S(0))) group_max(w.failed_pivot, static_cast<std::uint32_t>(pv) + 1u);
             x = r;
           } else if (i == pv) {
             x = -a_pj * r;
@@ -483,72 +550,27 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       g.sync();
     }
   }
-  if (!minv_supplied && g.rank == 0 && *w.status == 0) {
-    for (int pv = n - 1; pv >= 0; --pv) {
-      const S d = pivots[pv];
-      if (!is_finite(d)) *w.status = state_status(Reason::kMassNotFinite, Algorithm::kNone, pv);
-      else if (!(d > S(0))) *w.status = state_status(Reason::kMassNotPositive, Algorithm::kNone, pv);
-      if (*w.status != 0) break;
-    }
-  }
   // the columns of M^-1 that row i of a product with it needs: row i's block, or every column
   // for a caller's M^-1 (whose entries between blocks are the caller's)
   auto inverse_begin = [&](int i) { return minv_supplied ? 0 : block_begin(i); };
   auto inverse_end = [&](int i) { return minv_supplied ? n : block_end(i); };
-  if constexpr (!SinglePrecision<S>::value) {
-    // f64: qdd = M^-1 (tau - c)
-    if (b.tau_input) {
-      g.for_each(n, [&](int i) {
-        S s = S(0);
-        for (int j = inverse_begin(i); j < inverse_end(i); ++j) s += inverse[i * n + j] * (w.u[j] - w.c[j]);
-        w.qdd[i] = s;
-      });
-      g.sync();
-    }
-  }
-
-  // d qdd/d u = -M^-1 dc'/du, every entry in parallel; each thread writes its own entries
-  // (consecutive items, consecutive addresses) and flags what is not finite. Column j of
-  // d tau/d u is zero outside j's block, and so is row i of M^-1 computed here.
-  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
-  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
-  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
-  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
-  auto minus_product = [&](const S* dtau, int e) {
-    const int i = by_n.quotient(e), j = e - i * n, first = block_begin(j), end = block_end(j);
-    S s = S(0);
-    if (minv_supplied || block_begin(i) == first)
-      for (int r = first; r < end; ++r) s += inverse[i * n + r] * dtau[r * n + j];
-    return -s;
-  };
-  auto write = [&](S x, IO* out, std::uint64_t at) {
-    const IO y = static_cast<IO>(x);
-    if (!is_finite(y)) *w.not_finite = 1;
-    if (out) out[at] = y;
-  };
-
-  // d tau/d qd entry by entry (after the inversion: it shares its matrix with d tau/d q), as M:
-  // (a, b) with a ancestor-or-self of b gives column b's entry in row a and row b's entry in
-  // column a; then its product with M^-1
-  if (want_dqd) {
-    g.for_each(n * n, [&](int t) {
-      const int a = by_n.quotient(t), bb = t - a * n;
-      if (m.contains(a, bb)) {
-        const S* Sa = w.axis + 6 * a;
-        w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
-        if (a != bb) {
-          Vec6<S> u2;
-          for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
-          w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
-        }
-      } else if (!m.contains(bb, a)) {
-        w.dtau_dqd[t] = S(0);
+  // f64: qdd = M^-1 (tau - c) (f32 has it from the articulated-body pass), in one pass with the
+  // product of d tau/d qd
+  const int qdd_items = !SinglePrecision<S>::value && b.tau_input ? n : 0;
+  const int dqd_product_items = want_dqd ? product_items : 0;
+  if (qdd_items + dqd_product_items > 0) {
+    g.for_each(qdd_items + dqd_product_items, [&](int t) {
+      if (t >= qdd_items) {
+        minus_product_rows(w.dtau_dqd, t - qdd_items, out_dqd);
+        return;
       }
+      S s = S(0);
+      for (int j = inverse_begin(t); j < inverse_end(t); ++j) s += inverse[t * n + j] * (w.u[j] - w.c[j]);
+      w.qdd[t] = s;
     });
     g.sync();
-    g.for_each(n * n, [&](int e) { write(minus_product(w.dtau_dqd, e), out_dqd, state * mat + e); });
-    g.sync();
   }
+
 
   // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
   if (want_dq) {
@@ -600,16 +622,22 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // the other outputs: qdd, then the d/dq entries and M^-1 of the stages that ran
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  const int dq_items = want_dq ? n * n : 0;
+  const int dq_items = want_dq ? product_items : 0;
   g.for_each(n + dq_items + (want_minv ? n * n : 0), [&](int t) {
     if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
-    else if (t < n + dq_items) write(minus_product(w.dtau_dq, t - n), out_dq, state * mat + (t - n));
+    else if (t < n + dq_items) minus_product_rows(w.dtau_dq, t - n, out_dq);
     else write(inverse[t - n - dq_items], out_minv, state * mat + (t - n - dq_items));
   });
   g.sync();
   if (g.rank == 0 && active) {
-    std::uint32_t s = *w.status;
-    if (s == 0 && *w.not_finite) s = not_finite<S>(Algorithm::kFdDerivatives);
+    // the core's first failing pivot (its order: last joint first) is the largest one that failed
+    std::uint32_t s = 0;
+    if (*w.failed_pivot != 0) {
+      const int pv = static_cast<int>(*w.failed_pivot) - 1;
+      s = state_status(is_finite(pivots[pv]) ? Reason::kMassNotPositive : Reason::kMassNotFinite, Algorithm::kNone, pv);
+    } else if (*w.not_finite) {
+      s = not_finite<S>(Algorithm::kFdDerivatives);
+    }
     b.status[state] = s;
   }
 }

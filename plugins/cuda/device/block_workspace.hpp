@@ -45,8 +45,9 @@ struct BlockWorkspace {
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
   // U = IA S, c = alpha qd about the joint point, acceleration, d = S^T U and u = tau - S^T pA
   S *I_joint, *IA, *to_parent, *pA, *U, *aba_c, *aba_a, *aba_d, *aba_u;
-  // state_status of the state (0 = computed so far), and a flag set when an output is not finite
-  std::uint32_t *status, *not_finite;
+  // one plus the last joint whose pivot in the inversion of M failed (0 = none), and a flag set
+  // when an output is not finite
+  std::uint32_t *failed_pivot, *not_finite;
 
   // the scalars before the d/dq stage's vectors in B: the inversion's pivots and snapshots
   static constexpr int kInversionScalarsPerJoint = 5;
@@ -94,7 +95,7 @@ struct BlockWorkspace {
       I_joint = IA = to_parent = pA = U = aba_c = aba_a = aba_d = aba_u = nullptr;
     }
     auto* flags = reinterpret_cast<std::uint32_t*>(take(kStatusScalars));
-    status = flags;
+    failed_pivot = flags;
     not_finite = flags + 1;
   }
 

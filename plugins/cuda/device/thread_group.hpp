@@ -56,4 +56,13 @@ struct ThreadGroup {
   }
 };
 
+// *at = max(*at, value) for the threads of a group that meet the same word (shared memory)
+RBDGRAD_HD void group_max(std::uint32_t* at, std::uint32_t value) {
+#if defined(__CUDA_ARCH__)
+  atomicMax(at, value);
+#else
+  if (value > *at) *at = value;
+#endif
+}
+
 }  // namespace rbdgrad::cuda

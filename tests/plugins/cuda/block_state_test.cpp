@@ -240,27 +240,42 @@ TEST_P(BlockStateOnHost, F64MatchesCore) { check_robot<double>(GetParam()); }
 TEST_P(BlockStateOnHost, F32MatchesCore) { check_robot<float>(GetParam()); }
 
 INSTANTIATE_TEST_SUITE_P(Robots, BlockStateOnHost,
-                         ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq", "random_tree"),
+                         ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq", "random_tree", "wide_tree"),
                          [](const auto& param_info) { return std::string(param_info.param); });
 
 // A mass matrix that is not positive definite fails the state with the core's reason and joint.
+// A mass matrix that is not positive definite fails the state with the core's reason and joint
+// (the first in the core's order, last joint first): on a tree, two massless leaves, the deepest
+// one and the last one.
 TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
-  Model model = robot_model("iiwa14");
-  const int last = model.nv - 1;
-  model.mass[static_cast<std::size_t>(last)] = 0;
-  model.inertia_com[static_cast<std::size_t>(last)].setZero();
-  const std::vector<StateInputs> states = random_inputs(robot_model("iiwa14"), 2, 3);
-  CudaBatch<double> a(states, model.nv, true);
-  const OutputCase& c = kBlockCases[0];
-  const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, true, false);
-  const cuda::FlatModel<double> flat(model);
-  std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
-  const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);
-  const cuda::BatchPointers<double> b = a.pointers(c, true);
-  for (std::size_t k = 0; k < 2; ++k) {
-    EXPECT_EQ(cuda::status_reason(status[k]), cuda::Reason::kMassNotPositive) << "state " << k;
-    EXPECT_EQ(status[k], cuda::evaluate_state(flat.host_view(), ws, b, k))
-        << "state " << k << ": the one-thread kernel's status";
+  for (const char* robot : {"iiwa14", "talos_reduced", "wide_tree"}) {
+    Model model = robot_model(robot);
+    int deepest = -1;
+    std::vector<int> massless;
+    for (int i = 0; i < model.nv; ++i) {
+      const auto at = static_cast<std::size_t>(i);
+      const bool leaf = model.subtree_end[at] == i + 1;
+      if (leaf && (deepest < 0 || model.depth[at] > model.depth[static_cast<std::size_t>(deepest)])) deepest = i;
+    }
+    massless = {deepest, model.nv - 1};
+    for (int i : massless) {
+      model.mass[static_cast<std::size_t>(i)] = 0;
+      model.inertia_com[static_cast<std::size_t>(i)].setZero();
+    }
+    if (std::string(robot) == "talos_reduced") ASSERT_LT(deepest, model.nv - 1) << "two different leaves";
+    const std::vector<StateInputs> states = random_inputs(robot_model(robot), 2, 3);
+    CudaBatch<double> a(states, model.nv, true);
+    const OutputCase& c = kBlockCases[0];
+    const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, true, false);
+    const cuda::FlatModel<double> flat(model);
+    std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
+    const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);
+    const cuda::BatchPointers<double> b = a.pointers(c, true);
+    for (std::size_t k = 0; k < 2; ++k) {
+      EXPECT_EQ(cuda::status_reason(status[k]), cuda::Reason::kMassNotPositive) << robot << " state " << k;
+      EXPECT_EQ(status[k], cuda::evaluate_state(flat.host_view(), ws, b, k))
+          << robot << " state " << k << ": the one-thread kernel's status";
+    }
   }
 }
 

@@ -24,6 +24,7 @@ namespace rbdgrad::testing {
 
 inline Model robot_model(const std::string& name) {
   if (name == "random_tree") return random_model(21, 12, TreeShape::kBranching);
+  if (name == "wide_tree") return random_model(5, 21, TreeShape::kWide);
   return load_embedded(name);
 }
 
