@@ -445,7 +445,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       rows[k] = inverse + (i < n ? i : n - 1) * n;
       s[k] = S(0);
     }
-    for (int r = first; r < end; ++r) {
+    // a tile whose rows are all outside j's block (M^-1 computed here) is zero: no sums
+    const int row0 = kProductRows * p;
+    const int r_end = minv_supplied || (row0 < end && row0 + kProductRows > first) ? end : first;
+    for (int r = first; r < r_end; ++r) {
       const S x = dtau[r * n + j];
       for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
     }
