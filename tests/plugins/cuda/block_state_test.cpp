@@ -243,22 +243,19 @@ INSTANTIATE_TEST_SUITE_P(Robots, BlockStateOnHost,
                          ::testing::Values("iiwa14", "panda", "talos_reduced", "hyq", "random_tree", "wide_tree"),
                          [](const auto& param_info) { return std::string(param_info.param); });
 
-// A mass matrix that is not positive definite fails the state with the core's reason and joint.
 // A mass matrix that is not positive definite fails the state with the core's reason and joint
 // (the first in the core's order, last joint first): on a tree, two massless leaves, the deepest
-// one and the last one.
+// one and the last one (one leaf on a chain).
 TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
   for (const char* robot : {"iiwa14", "talos_reduced", "wide_tree"}) {
     Model model = robot_model(robot);
     int deepest = -1;
-    std::vector<int> massless;
     for (int i = 0; i < model.nv; ++i) {
       const auto at = static_cast<std::size_t>(i);
       const bool leaf = model.subtree_end[at] == i + 1;
       if (leaf && (deepest < 0 || model.depth[at] > model.depth[static_cast<std::size_t>(deepest)])) deepest = i;
     }
-    massless = {deepest, model.nv - 1};
-    for (int i : massless) {
+    for (const int i : {deepest, model.nv - 1}) {
       model.mass[static_cast<std::size_t>(i)] = 0;
       model.inertia_com[static_cast<std::size_t>(i)].setZero();
     }
