@@ -135,8 +135,12 @@ TEST(BlockStateOnHost, RootsSplitTheJointsIntoBlocks) {
     int covered = 0;
     for (int size : block_sizes) covered += size;
     EXPECT_EQ(covered, m.nv) << robot;
-    if (std::string(robot) == "talos_reduced") EXPECT_EQ(block_sizes, (std::vector<int>{6, 6, 20}));
-    if (std::string(robot) == "iiwa14") EXPECT_EQ(block_sizes, (std::vector<int>{7}));
+    if (std::string(robot) == "talos_reduced") {
+      EXPECT_EQ(block_sizes, (std::vector<int>{6, 6, 20}));
+    }
+    if (std::string(robot) == "iiwa14") {
+      EXPECT_EQ(block_sizes, (std::vector<int>{7}));
+    }
   }
 }
 
@@ -259,7 +263,9 @@ TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
       model.mass[static_cast<std::size_t>(i)] = 0;
       model.inertia_com[static_cast<std::size_t>(i)].setZero();
     }
-    if (std::string(robot) == "talos_reduced") ASSERT_LT(deepest, model.nv - 1) << "two different leaves";
+    if (std::string(robot) == "talos_reduced") {
+      ASSERT_LT(deepest, model.nv - 1) << "two different leaves";
+    }
     const std::vector<StateInputs> states = random_inputs(robot_model(robot), 2, 3);
     CudaBatch<double> a(states, model.nv, true);
     const OutputCase& c = kBlockCases[0];
