@@ -134,22 +134,6 @@ RBDGRAD_HD S cross_force_column_at(const S* m, const S* A, int k, int c) {
   if (c < 3) return cross3(0, 0, c) + cross3(3, 3, c);
   return cross3(0, 3, c - 3);
 }
-
-// An nv x nv matrix X of the tree's shape (M, d tau/d qd, d tau/d q), entry by entry: item
-// t = a nv + b with a ancestor-or-self of b gives X(a, b) = down(a, b) and, off the diagonal,
-// X(b, a) = up(a, b, X(a, b)); entries of unrelated joints are zero.
-template <class S, class Model, class ByN, class Down, class Up>
-RBDGRAD_HD void fill_tree_matrix(const Model& m, const ByN& by_n, S* X, int t, Down down, Up up) {
-  const int n = m.nv, a = by_n.quotient(t), b = t - a * n;
-  if (m.contains(a, b)) {
-    const S x = down(a, b);
-    X[a * n + b] = x;
-    if (a != b) X[b * n + a] = up(a, b, x);
-  } else if (!m.contains(b, a)) {
-    X[t] = S(0);
-  }
-}
-
 // skew(x)(row, col)
 template <class S>
 RBDGRAD_HD S skew_at(const S* x, int row, int col) {
@@ -412,11 +396,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (want_dqd) w.E[t] = S(2) * block::symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
   });
   g.sync();
-  // M entry by entry
+  // M entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry in row a and row
+  // b's entry in column a; entries of unrelated joints are zero
   g.for_each(n * n, [&](int t) {
-    block::fill_tree_matrix(
-        m, by_n, w.M, t, [&](int a, int bb) { return dot6(w.axis + 6 * a, w.Ic_S + 6 * bb); },
-        [](int, int, S mass) { return mass; });
+    const int a = by_n.quotient(t), bb = t - a * n;
+    if (m.contains(a, bb)) {
+      const S mass = dot6(w.axis + 6 * a, w.Ic_S + 6 * bb);
+      w.M[a * n + bb] = mass;
+      w.M[bb * n + a] = mass;
+    } else if (!m.contains(bb, a)) {
+      w.M[t] = S(0);
+    }
   });
   g.sync();
   if constexpr (SinglePrecision<S>::value) {
@@ -469,16 +459,22 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   };
 
-  // d tau/d qd, in the pass before the inversion's steps (its matrix, which d tau/d q takes over
-  // later, is free then); its product with M^-1 in the pass after them
+  // d tau/d qd entry by entry, as M: (a, b) with a ancestor-or-self of b gives column b's entry in
+  // row a and row b's entry in column a. In the pass before the inversion's steps (its matrix,
+  // which d tau/d q takes over later, is free then), its product with M^-1 in the pass after them.
   auto fill_dtau_dqd = [&](int t) {
-    block::fill_tree_matrix(
-        m, by_n, w.dtau_dqd, t, [&](int a, int bb) { return dot6(w.axis + 6 * a, w.E + 6 * bb); },
-        [&](int a, int bb, S) {
-          Vec6<S> u2;
-          for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
-          return dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.axis + 6 * a);
-        });
+    const int a = by_n.quotient(t), bb = t - a * n;
+    if (m.contains(a, bb)) {
+      const S* Sa = w.axis + 6 * a;
+      w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
+      if (a != bb) {
+        Vec6<S> u2;
+        for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
+        w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
+      }
+    } else if (!m.contains(bb, a)) {
+      w.dtau_dqd[t] = S(0);
+    }
   };
   const int dqd_fill_items = want_dqd ? n * n : 0;
 
@@ -578,6 +574,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.sync();
   }
 
+
   // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
   if (want_dq) {
     g.for_each(6 * n, [&](int t) {
@@ -614,11 +611,14 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     });
     g.sync();
     g.for_each(n * n, [&](int t) {
-      block::fill_tree_matrix(
-          m, by_n, w.dtau_dq, t, [&](int a, int bb) { return dot6(w.axis + 6 * a, w.Dq + 6 * bb); },
-          [&](int a, int bb, S) {
-            return dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
-          });
+      const int a = by_n.quotient(t), bb = t - a * n;
+      if (m.contains(a, bb)) {
+        w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
+        if (a != bb)
+          w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
+      } else if (!m.contains(bb, a)) {
+        w.dtau_dq[t] = S(0);
+      }
     });
     g.sync();
   }
