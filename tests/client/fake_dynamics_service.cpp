@@ -110,12 +110,12 @@ grpc::Status FakeDynamicsService::answer(grpc::ServerContext* ctx, const v1::Com
   resp.mutable_timings()->set_total_us(kTotalUs);
   if (req.request_id() == "split") {
     // as a daemon that split the request: the first state on the cpu, the rest on cuda
-    for (const auto& [backend, first, n] : {std::tuple{v1::BACKEND_CPU, 0u, 1u},
-                                            std::tuple{v1::BACKEND_CUDA, 1u, req.num_states() - 1}}) {
+    for (const auto& [backend, first, count] : {std::tuple{v1::BACKEND_CPU, 0u, 1u},
+                                                std::tuple{v1::BACKEND_CUDA, 1u, req.num_states() - 1}}) {
       v1::BatchPart* part = resp.add_parts();
       part->set_backend(backend);
       part->set_first_state(first);
-      part->set_num_states(n);
+      part->set_num_states(count);
       part->set_compute_us(10 + first);
     }
   }

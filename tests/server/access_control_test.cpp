@@ -195,7 +195,7 @@ TEST(MessageSize, LargestRequestOrResponsePlusTheMargin) {
 
 TEST(MessageSize, DerivedFromTheLargestModelAndClampedToGrpcsLimit) {
   ModelRegistry models;
-  ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt}, {"talos", "", "talos_reduced", std::nullopt}},
+  ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt, {}}, {"talos", "", "talos_reduced", std::nullopt, {}}},
                                   models)
                   .is_ok());
   const auto nv = static_cast<std::uint64_t>(models.find("talos")->model.nv);

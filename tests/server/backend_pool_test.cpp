@@ -21,7 +21,7 @@ const char* kMissingFpga = "/nonexistent/librbdgrad_fpga.so";
 class BackendPoolTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt}, {"hyq", "", "hyq", std::nullopt}},
+    ASSERT_TRUE(ModelRegistry::load({{"iiwa14", "", "iiwa14", std::nullopt, {}}, {"hyq", "", "hyq", std::nullopt, {}}},
                                     models_).is_ok());
   }
 
@@ -44,7 +44,7 @@ class BackendPoolTest : public ::testing::Test {
 };
 
 TEST_F(BackendPoolTest, LoadsTheConfiguredPluginsAndTheCpuBackendRecordingFailures) {
-  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}}, {kMissingFpga, {}}});
+  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}, 0, ""}, {kMissingFpga, {}, 0, ""}});
   ASSERT_EQ(pool->backends().size(), 3u);
   EXPECT_EQ(pool->ready_count(), 2u);
 
@@ -69,9 +69,9 @@ TEST_F(BackendPoolTest, LoadsTheConfiguredPluginsAndTheCpuBackendRecordingFailur
 // One library under two names (a backend per GPU): two backends of kind "cuda"; a route names
 // either, or the kind (the first that serves the model).
 TEST_F(BackendPoolTest, OneLibraryUnderTwoNamesIsTwoBackendsOfOneKind) {
-  PluginConfig gpu0{FAKE_CUDA_PATH, {{"device", "0"}}};
+  PluginConfig gpu0{FAKE_CUDA_PATH, {{"device", "0"}}, 0, ""};
   gpu0.name = "cuda0";
-  PluginConfig gpu1{FAKE_CUDA_PATH, {{"device", "1"}}};
+  PluginConfig gpu1{FAKE_CUDA_PATH, {{"device", "1"}}, 0, ""};
   gpu1.name = "cuda1";
   gpu1.instances = 2;
   auto pool = make({gpu0, gpu1, {kMissingFpga, {}, 0, "fpga7"}});
@@ -110,7 +110,7 @@ TEST_F(BackendPoolTest, OneLibraryUnderTwoNamesIsTwoBackendsOfOneKind) {
 }
 
 TEST_F(BackendPoolTest, APluginEntrySetsItsInstancesPerModel) {
-  PluginConfig cuda{FAKE_CUDA_PATH, {}};
+  PluginConfig cuda{FAKE_CUDA_PATH, {}, 0, ""};
   cuda.instances = 3;
   auto pool = make({cuda});
   const BackendState* fake = state(*pool, "cuda");
@@ -124,7 +124,7 @@ TEST_F(BackendPoolTest, APluginEntrySetsItsInstancesPerModel) {
 }
 
 TEST_F(BackendPoolTest, RoutesAutoToCpuAndResolvesAutoPrecisionToF64) {
-  auto pool = make({{FAKE_CUDA_PATH, {}}});
+  auto pool = make({{FAKE_CUDA_PATH, {}, 0, ""}});
   Route route;
   ASSERT_TRUE(pool->route(*models_.find("hyq"), "", 0, route).is_ok());
   EXPECT_EQ(route.backend->name, "cpu");
@@ -145,7 +145,7 @@ TEST_F(BackendPoolTest, RoutesAutoToCpuAndResolvesAutoPrecisionToF64) {
 }
 
 TEST_F(BackendPoolTest, RefusesAPrecisionTheHintedBackendLacks) {
-  auto pool = make({{FAKE_CUDA_PATH, {}}});
+  auto pool = make({{FAKE_CUDA_PATH, {}, 0, ""}});
   Route route;
   const Status s = pool->route(*models_.find("iiwa14"), "cuda", RBDGRAD_PRECISION_FIXED_Q16_16, route);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
@@ -153,7 +153,7 @@ TEST_F(BackendPoolTest, RefusesAPrecisionTheHintedBackendLacks) {
 }
 
 TEST_F(BackendPoolTest, AMissingBackendIsUnavailableWithTheReason) {
-  auto pool = make({{kMissingFpga, {}}});
+  auto pool = make({{kMissingFpga, {}, 0, ""}});
   Route route;
   Status s = pool->route(*models_.find("iiwa14"), "cuda", 0, route);
   EXPECT_EQ(s.code(), StatusCode::kUnavailable);
@@ -210,7 +210,7 @@ TEST_F(BackendPoolTest, AModelAddedLaterGetsInstancesOnEveryReadyBackendThatCanS
 // The start-up line shows what a backend's first instance says of how it runs; the instances of
 // the other models say it where it differs (a scene's CUDA kernel with its stages fixed).
 TEST_F(BackendPoolTest, EachModelsInstancesSayHowTheyRunWhereTheyDifferFromTheFirst) {
-  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}}});
+  auto pool = make({{FAKE_CUDA_PATH, {{"device", "0"}}, 0, ""}});
   const BackendState* cuda = state(*pool, "cuda");
   ASSERT_NE(cuda, nullptr);
   EXPECT_EQ(cuda->description.detail, "kernel for nv 7");  // iiwa14's, the first model
@@ -219,7 +219,7 @@ TEST_F(BackendPoolTest, EachModelsInstancesSayHowTheyRunWhereTheyDifferFromTheFi
 }
 
 TEST_F(BackendPoolTest, ABackendThatCannotCreateInstancesIsUnavailableNamingTheModel) {
-  auto pool = make({{FAKE_CUDA_PATH, {{"bogus", "1"}}}});
+  auto pool = make({{FAKE_CUDA_PATH, {{"bogus", "1"}}, 0, ""}});
   const BackendState* cuda = state(*pool, "cuda");
   ASSERT_NE(cuda, nullptr);
   EXPECT_FALSE(cuda->ready);
@@ -234,7 +234,7 @@ TEST_F(BackendPoolTest, ABackendThatCannotCreateInstancesIsUnavailableNamingTheM
 }
 
 TEST_F(BackendPoolTest, AConfiguredCpuPluginReplacesTheBuiltInOne) {
-  auto pool = make({{RBDGRAD_CPU_PLUGIN_PATH, {{"threads", "1"}}}}, "/nonexistent/librbdgrad_cpu.so");
+  auto pool = make({{RBDGRAD_CPU_PLUGIN_PATH, {{"threads", "1"}}, 0, ""}}, "/nonexistent/librbdgrad_cpu.so");
   ASSERT_EQ(pool->backends().size(), 1u);  // the built-in path was never tried
   EXPECT_TRUE(pool->backends()[0].ready);
   EXPECT_EQ(pool->backends()[0].options, "threads=1");
@@ -260,7 +260,7 @@ TEST_F(BackendPoolTest, OptionalBuiltInPluginsLoadWhenPresentAndYieldToConfigure
   EXPECT_EQ(pool->backends().back().name, "cuda");  // after the CPU backend
 
   // a configured plugin named cuda, even one that fails to load, is not replaced
-  options.plugins = {{"/nonexistent/librbdgrad_cuda.so", {}}};
+  options.plugins = {{"/nonexistent/librbdgrad_cuda.so", {}, 0, ""}};
   pool = BackendPool::create(options, models_);
   const auto cuda = std::count_if(pool->backends().begin(), pool->backends().end(),
                                   [](const BackendState& s) { return s.name == "cuda"; });

@@ -48,7 +48,7 @@ inline Model random_model(unsigned seed, int n, TreeShape shape, bool with_prism
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1), pos(0.1, 1);
   Model m;
-  m.name = "random_" + std::to_string(seed);
+  m.name = std::string("random_").append(std::to_string(seed));
   m.source = "<random>";
   m.nv = n;
   std::vector<int> path;  // ancestors-or-self of the last joint: choosing among them keeps DFS order
@@ -79,10 +79,10 @@ inline Model random_model(unsigned seed, int n, TreeShape shape, bool with_prism
     m.inertia_com.push_back(R * moments.asDiagonal() * R.transpose());
     m.link_rotation.push_back(Eigen::Matrix3d::Identity());
     JointInfo info;
-    info.name = "j" + std::to_string(i);
+    info.name = std::string("j").append(std::to_string(i));
     info.urdf_type = m.type.back() == JointType::kPrismatic ? "prismatic" : "revolute";
-    info.child_link = "l" + std::to_string(i);
-    info.parent_link = parent < 0 ? "base" : "l" + std::to_string(parent);
+    info.child_link = std::string("l").append(std::to_string(i));
+    info.parent_link = parent < 0 ? std::string("base") : std::string("l").append(std::to_string(parent));
     m.joints.push_back(info);
   }
   finalize_topology(m);
