@@ -582,7 +582,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.sync();
   }
 
-
   // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
   if (want_dq) {
     g.for_each(6 * n, [&](int t) {
