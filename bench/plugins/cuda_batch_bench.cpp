@@ -95,19 +95,24 @@ struct Batch {
 
 // One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#compact]
   std::string unavailable;
   std::mutex mutex;  // benchmark threads create their own instances
 
-  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0) {
+  // compact: an instance of its own whose block kernel compiled for the robot is the compact one
+  // (the option takes effect when the kernels are compiled)
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0, bool compact = false) {
     std::lock_guard<std::mutex> lock(mutex);
     if (!unavailable.empty()) return nullptr;
-    auto& slot = instances[robot + "#" + std::to_string(copy)];
+    auto& slot = instances[robot + "#" + std::to_string(copy) + (compact ? "#compact" : "")];
     if (!slot) {
       if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
         return nullptr;
       }
+      rbdgrad::cuda::KernelOptions options;
+      options.block_compact = compact;
+      (void)slot->set_kernel_options(options);
       // as the plugin does by default: the block and warp kernels compiled for the robot (the
       // "generic" entries turn them off)
       (void)slot->specialize("");
@@ -192,8 +197,16 @@ Kernel pipeline(std::size_t chunks, bool robot_specific = true) {
 }
 // `k` with the block kernel at `threads` per state (one state a block)
 Kernel wider(Kernel k, int threads) {
-  k.name += "-" + std::to_string(threads);
+  // two appends: GCC 12 warns falsely (-Wrestrict) on "-" + std::to_string(...)
+  k.name += '-';
+  k.name += std::to_string(threads);
   k.options.block_shape = {threads, 1};
+  return k;
+}
+// `k` with the compact block kernel (plugin option block_compact: more states an SM)
+Kernel compact(Kernel k) {
+  k.name += "-compact";
+  k.options.block_compact = true;
   return k;
 }
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
@@ -227,7 +240,8 @@ Kernel block_kernel(int threads_per_state, int states_per_block) {
 template <class S>
 void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel,
               bool pinned_memory) {
-  rbdgrad::cuda::CudaInstance* instance = backend().instance(robot, state.thread_index());
+  rbdgrad::cuda::CudaInstance* instance =
+      backend().instance(robot, state.thread_index(), kernel.options.block_compact);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
     return;
@@ -374,7 +388,17 @@ const bool registered = [] {
         if (n != 65536 || std::string(robot) != "talos_reduced") continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
+        // and the compact block kernel, four states an SM (one block of 256 threads a state)
+        add<float>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
+        add<double>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
       }
+  // cuda_compact: talos_reduced's block kernel, compact (four states an SM) against the default,
+  // end to end at the anchors' sizes
+  for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
+    for (const Kernel& kernel : {default_kernel(), compact(default_kernel())}) {
+      add<float>("cuda_compact", "talos_reduced", n, kernel);
+      add<double>("cuda_compact", "talos_reduced", n, kernel);
+    }
   // cuda_mapped: mapped memory at sizes where the defaults copy
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (std::size_t n : {64, 256, 1024, 4096, 16384, 65536}) {

@@ -40,6 +40,15 @@ std::size_t block_shared_bytes(int nv, bool tau_input, const BlockShape& shape) 
   return block_model_bytes<S>(nv) + BlockWorkspace<S>::scalars(nv, block_uses_aba<S>(tau_input)) * sizeof(S) *
                                         static_cast<std::size_t>(shape.states_per_block);
 }
+/// The same for the compact kernel (block_kernel_entry.hpp), whose working set depends on whether
+/// the batch brings M^-1; at most the above.
+template <class S, class IO>
+std::size_t compact_block_shared_bytes(const ModelView<S>& model, const BatchPointers<IO>& batch,
+                                       const BlockShape& shape) {
+  return block_model_bytes<S>(model.nv, true) +
+         block_state_scalars(model, batch.tau_input, batch.minv != nullptr, true) * sizeof(S) *
+             static_cast<std::size_t>(shape.states_per_block);
+}
 
 /// Lets the kernel (S computing, IO the batch's scalars) use up to `bytes` of shared memory per
 /// block (the device's opt-in limit); once per device before the first launch.

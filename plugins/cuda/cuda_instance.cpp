@@ -279,8 +279,8 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
                                                  : scalars == KernelScalars::kF64 ? specialized_f64_
                                                                                   : specialized_f64_for_f32_;
     k.reset();
-    const Status s =
-        SpecializedBlockKernel::load(model_, scalars, block_stages(), device_, max_shared_bytes_, cache_dir, k);
+    const Status s = SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact,
+                                                  kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
@@ -288,6 +288,10 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
       continue;
     }
     parts += k->library().description();
+    if (k->build().compact)
+      parts += ", compact" + (k->build().register_cap > 0
+                                  ? ", at most " + std::to_string(k->build().register_cap) + " registers a thread"
+                                  : std::string());
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64
   specialized_warp_.reset();

@@ -115,6 +115,10 @@ struct KernelOptions {
   // gradient batches computed in f64 on models of up to kMaxWarpNv joints run the warp kernel
   // (warp_launch.hpp) instead of the block kernel
   bool warp_kernel = true;
+  // the block kernel compiled for the robot is the compact one (device/block_kernel_entry.hpp):
+  // more states an SM where shared memory limits them, not yet measured against the other
+  // (docs/benchmarks/cuda.md), hence off. Read by specialize(), which builds the kernel.
+  bool block_compact = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;

@@ -85,10 +85,13 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // default $XDG_CACHE_HOME or $HOME/.cache, under rbdgrad/cuda-kernels). graphs: a batch of one
     // kernel launch without copies goes as a CUDA Graph (default true). warp_kernel: gradient
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).
+    // block_compact: the block kernel compiled for the robot is the compact one, which fits more
+    // states an SM (default false: not yet measured against the other; cuda_instance.hpp).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
-                                           "specialize", "kernel_cache_dir", "graphs", "warp_kernel"});
+                                           "specialize", "kernel_cache_dir", "graphs", "warp_kernel",
+                                           "block_compact"});
         !s)
       return s;
     bool specialize = true;
@@ -97,6 +100,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_bool(options, "graphs", graphs); !s) return s;
     bool warp_kernel = true;
     if (Status s = option_bool(options, "warp_kernel", warp_kernel); !s) return s;
+    bool block_compact = false;
+    if (Status s = option_bool(options, "block_compact", block_compact); !s) return s;
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;
@@ -135,6 +140,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     kernel.block_shape = {static_cast<int>(tps), static_cast<int>(spb)};
     kernel.graphs = graphs;
     kernel.warp_kernel = warp_kernel;
+    kernel.block_compact = block_compact;
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;

@@ -34,6 +34,15 @@ struct FlatModel {
         if (model.depth[i] == level + 1) level_joints[at++] = static_cast<int>(i);
     }
     level_start[levels] = at;
+    // matrix_row: the roots' blocks (contiguous index ranges) one after the other, each square
+    int* matrix_row = ints.data() + ModelLayout::matrix_row(nv);
+    matrix_scalars = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const int root = ints[3 * n + i], size = model.subtree_end[static_cast<std::size_t>(root)] - root;
+      if (static_cast<int>(i) == root) matrix_scalars += size * size;
+      // the block starts at matrix_scalars - size * size; row i is row i - root of it
+      matrix_row[i] = matrix_scalars - size * size + (static_cast<int>(i) - root) * size - root;
+    }
     // the order of model_view(): row-major 3x3 matrices, 3-vectors, scalars
     auto matrices = [&](const std::vector<Eigen::Matrix3d>& m) {
       for (const Eigen::Matrix3d& x : m)
@@ -55,12 +64,13 @@ struct FlatModel {
 
   /// A view onto blocks laid out like these, e.g. their device copies.
   ModelView<S> view(const S* scalar_block, const int* int_block) const {
-    return model_view(nv, levels, scalar_block, int_block, gravity);
+    return model_view(nv, levels, matrix_scalars, scalar_block, int_block, gravity);
   }
   ModelView<S> host_view() const { return view(scalars.data(), ints.data()); }
 
   int nv;
   int levels;              // the tree's depth
+  int matrix_scalars;      // ModelView::matrix_scalars
   std::vector<S> scalars;  // (ModelLayout::scalars(nv))
   std::vector<int> ints;   // (ModelLayout::ints(nv))
   S gravity[3];

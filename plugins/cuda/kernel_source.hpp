@@ -23,10 +23,18 @@ const char* kernel_scalars_name(KernelScalars scalars);  // "f64", "f32", "f64 f
 /// "stages per batch", "stages fixed: d/dq, M^-1 computed": a kernel's block_stages, for logs.
 std::string block_stages_text(int stages);
 
+/// How the block kernel for a robot is built: compact (block_kernel_entry.hpp: the robot's scalar
+/// constants in device memory, the matrices packed by the roots' blocks), and a cap on its
+/// registers a thread (register_cap.hpp; 0: none).
+struct BlockBuild {
+  bool compact = false;
+  int register_cap = 0;
+};
+
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for
 /// compute capability 9.0); `stages` a scene's fixed block_stages, or kPerBatch.
 NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch,
-                                  int stages = block_stages::kPerBatch);
+                                  int stages = block_stages::kPerBatch, const BlockBuild& build = {});
 
 /// The warp kernel's entry points for `model` (nv <= kMaxWarpNv) with its joint count and depth
 /// fixed, for sm_<arch>: name_expressions[e] is WarpEntry e (warp_launch.hpp) for f64 batches, then with

@@ -2,21 +2,59 @@
 
 #include <type_traits>
 
+#include "cuda_device.hpp"
+#include "flat_model.hpp"
+#include "register_cap.hpp"
+
 namespace rbdgrad::cuda {
 
-Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, int device,
-                                    std::size_t max_shared_bytes,
+namespace {
+
+// The compact f64 kernel's register cap on `device` for blocks of `shape` (large batches' shape
+// where it is automatic), from its shared memory for a batch from tau without a caller's M^-1
+Status compact_register_cap(const Model& model, const BlockShape& shape, int device, int& cap) {
+  cudaDeviceProp prop{};
+  if (Status s = cuda_status(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties"); !s) return s;
+  SmLimits sm;
+  sm.shared_bytes = prop.sharedMemPerMultiprocessor;
+  sm.reserved_shared_bytes = prop.reservedSharedMemPerBlock;
+  sm.registers = prop.regsPerMultiprocessor;
+  sm.max_threads = prop.maxThreadsPerMultiProcessor;
+  sm.max_blocks = prop.maxBlocksPerMultiProcessor;
+  const FlatModel<double> flat(model);
+  BatchPointers<double> batch;
+  batch.tau_input = true;
+  const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1);
+  cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large),
+                           large.threads_per_state * large.states_per_block);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
+                                    const BlockShape& shape, int device, std::size_t max_shared_bytes,
                                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
-  if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages), device, max_shared_bytes,
-                                       cache_dir, k->library_);
+  k->build_.compact = compact;
+  if (compact && scalars != KernelScalars::kF32)
+    if (Status s = compact_register_cap(model, shape, device, k->build_.register_cap); !s) return s;
+  if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
+                                       max_shared_bytes, cache_dir, k->library_);
       !s)
     return s;
   out = std::move(k);
   return Status::ok();
+}
+
+template <class S, class IO>
+std::size_t SpecializedBlockKernel::shared_bytes(const ModelView<S>& model, const BatchPointers<IO>& batch,
+                                                 const BlockShape& shape) const {
+  return build_.compact ? compact_block_shared_bytes(model, batch, shape)
+                        : block_shared_bytes<S>(model.nv, batch.tau_input, shape);
 }
 
 template <class S, class IO>
@@ -33,8 +71,7 @@ cudaError_t SpecializedBlockKernel::launch(const ModelView<S>& model, const Batc
   ModelView<S> model_arg = model;
   BatchPointers<IO> batch_arg = batch;
   void* args[] = {&model_arg, &batch_arg};
-  return cudaLaunchKernel(library_->kernel(0), blocks, threads, args,
-                          block_shared_bytes<S>(model.nv, batch.tau_input, shape), stream);
+  return cudaLaunchKernel(library_->kernel(0), blocks, threads, args, shared_bytes(model, batch, shape), stream);
 }
 
 template <class S, class IO>
@@ -48,7 +85,7 @@ bool SpecializedBlockKernel::launch_config(const ModelView<S>& model, const Batc
   out.function = library_->kernel(0);
   out.grid = dim3(static_cast<unsigned>((batch.n + per_block - 1) / per_block));
   out.block = dim3(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
-  out.shared_bytes = block_shared_bytes<S>(model.nv, batch.tau_input, shape);
+  out.shared_bytes = shared_bytes(model, batch, shape);
   return true;
 }
 

@@ -21,10 +21,14 @@ class SpecializedBlockKernel {
  public:
   /// Builds the kernel of `model` in `scalars` with `stages` (block_stages: a scene's, or
   /// kPerBatch) for `device` (current), its shared memory allowed up to `max_shared_bytes`.
+  /// compact: the compact kernel (block_kernel_entry.hpp), its registers capped for blocks of
+  /// `shape` (the instance's, resolved for a large batch) where it computes in f64
+  /// (register_cap.hpp; the f32 arithmetic's articulated-body pass spills at 64 registers).
   /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
   /// or loading failed: the message says which).
-  static Status load(const Model& model, KernelScalars scalars, int stages, int device, std::size_t max_shared_bytes,
-                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
+  static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, const BlockShape& shape,
+                     int device, std::size_t max_shared_bytes, const std::string& cache_dir,
+                     std::unique_ptr<SpecializedBlockKernel>& out);
 
   /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
   /// cudaErrorInvalidValue).
@@ -40,12 +44,18 @@ class SpecializedBlockKernel {
 
   /// Where it came from and how long it took (CompiledLibrary::description).
   const CompiledLibrary& library() const { return *library_; }
+  /// How it was built.
+  const BlockBuild& build() const { return build_; }
 
  private:
   SpecializedBlockKernel() = default;
 
+  template <class S, class IO>
+  std::size_t shared_bytes(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape) const;
+
   std::unique_ptr<CompiledLibrary> library_;
   KernelScalars scalars_ = KernelScalars::kF64;
+  BlockBuild build_;
 };
 
 }  // namespace rbdgrad::cuda

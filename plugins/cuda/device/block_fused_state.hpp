@@ -50,6 +50,18 @@ constexpr RBDGRAD_HD bool block_uses_aba(bool tau_input) {
   return SinglePrecision<S>::value && tau_input;
 }
 
+// Scalars of one state's working set for a batch (block_workspace.hpp), as the kernel carves them:
+// compact, M and d tau/d u packed by the roots' blocks (block_kernel_entry.hpp; a caller's M^-1
+// stays dense), else dense.
+template <class S>
+RBDGRAD_HD std::size_t block_state_scalars(const ModelView<S>& model, bool tau_input, bool minv_supplied,
+                                           bool compact) {
+  const int dense = model.nv * model.nv;
+  const int matrix = compact ? model.matrix_scalars : dense;
+  return BlockWorkspace<S>::scalars(model.nv, block_uses_aba<S>(tau_input), matrix,
+                                    compact && !minv_supplied ? matrix : dense);
+}
+
 namespace block {
 
 // (A x)_k of a 6x6 A at body i of `base` (kBodyMatrixStride apart); (A^T x)_k
@@ -172,7 +184,9 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // batch's scalar type (block_load_inputs); an output that leaves IO's range is flagged as not
 // finite.
 // kStages: block_stages (a scene's fixed stages, which the batch follows) or kPerBatch.
-template <class S, class Model, class IO, int kStages = block_stages::kPerBatch>
+// kPacked: M, M^-1 computed here and d tau/d u packed by the roots' blocks (ModelView::matrix_row;
+// the compact kernel, block_kernel_entry.hpp), w's matrices sized so; else dense nv x nv.
+template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
@@ -190,6 +204,16 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const bool want_dq = kFixed ? (kStages & block_stages::kDq) != 0 : (b.outputs & kOutputDqddDq) != 0;
   const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
   const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
+  // where row i of M (of M^-1 computed here) and of d tau/d u starts: entry (i, j) at row_at(i) + j,
+  // j in row i's block where packed (entries between blocks are zero and not stored)
+  const auto row_at = [&](int i) {
+    if constexpr (kPacked) return m.matrix_row[i];
+    else return i * n;
+  };
+  // the same for M^-1: a caller's stays dense
+  const auto inverse_row = [&](int i) { return minv_supplied ? i * n : row_at(i); };
+  // (a, b) in different blocks: not stored where packed
+  const auto unstored = [&](int a, int bb) { return kPacked && m.root_of[a] != m.root_of[bb]; };
 
   if (g.rank == 0) *w.failed_pivot = *w.not_finite = 0;
   // the joint transforms in the parent frames
@@ -408,12 +432,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // b's entry in column a; entries of unrelated joints are zero
   g.for_each(n * n, [&](int t) {
     const int a = by_n.quotient(t), bb = t - a * n;
+    if (unstored(a, bb)) return;
     if (m.contains(a, bb)) {
       const S mass = dot6(w.axis + 6 * a, w.Ic_S + 6 * bb);
-      w.M[a * n + bb] = mass;
-      w.M[bb * n + a] = mass;
+      w.M[row_at(a) + bb] = mass;
+      w.M[row_at(bb) + a] = mass;
     } else if (!m.contains(bb, a)) {
-      w.M[t] = S(0);
+      w.M[kPacked ? row_at(a) + bb : t] = S(0);
     }
   });
   g.sync();
@@ -450,15 +475,31 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     S s[kProductRows];
     for (int k = 0; k < kProductRows; ++k) {
       const int i = kProductRows * p + k;
-      rows[k] = inverse + (i < n ? i : n - 1) * n;
+      if constexpr (kPacked) {
+        // a row outside j's block (whose sum is not used) reads the block's first row: its own
+        // has no entries in j's columns
+        const int r = i < n ? i : n - 1;
+        rows[k] = inverse + (!minv_supplied && block_begin(r) != first ? row_at(first) : inverse_row(r));
+      } else {
+        rows[k] = inverse + (i < n ? i : n - 1) * n;
+      }
       s[k] = S(0);
     }
     // a tile whose rows are all outside j's block (M^-1 computed here) is zero: no sums
     const int row0 = kProductRows * p;
     const int r_end = minv_supplied || (row0 < end && row0 + kProductRows > first) ? end : first;
-    for (int r = first; r < r_end; ++r) {
-      const S x = dtau[r * n + j];
-      for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
+    if constexpr (kPacked) {
+      // column j of the block, (end - first) apart from row to row
+      const S* const dtau_j = dtau + row_at(first) + j;
+      for (int r = first; r < r_end; ++r) {
+        const S x = dtau_j[(r - first) * (end - first)];
+        for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
+      }
+    } else {
+      for (int r = first; r < r_end; ++r) {
+        const S x = dtau[r * n + j];
+        for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
+      }
     }
     for (int k = 0; k < kProductRows; ++k) {
       const int i = kProductRows * p + k;
@@ -472,16 +513,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // which d tau/d q takes over later, is free then), its product with M^-1 in the pass after them.
   auto fill_dtau_dqd = [&](int t) {
     const int a = by_n.quotient(t), bb = t - a * n;
+    if (unstored(a, bb)) return;
     if (m.contains(a, bb)) {
       const S* Sa = w.axis + 6 * a;
-      w.dtau_dqd[a * n + bb] = dot6(Sa, w.E + 6 * bb);
+      w.dtau_dqd[row_at(a) + bb] = dot6(Sa, w.E + 6 * bb);
       if (a != bb) {
         Vec6<S> u2;
         for (int x = 0; x < 6; ++x) u2.v[x] = S(2) * w.Ic_S[6 * bb + x];
-        w.dtau_dqd[bb * n + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
+        w.dtau_dqd[row_at(bb) + a] = dot6(u2.v, w.alpha + 6 * a) + dot6(w.Bc_t_S + 6 * bb, Sa);
       }
     } else if (!m.contains(bb, a)) {
-      w.dtau_dqd[t] = S(0);
+      w.dtau_dqd[kPacked ? row_at(a) + bb : t] = S(0);
     }
   };
   const int dqd_fill_items = want_dqd ? n * n : 0;
@@ -518,8 +560,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         return;
       }
       const int last = block_end(t) - 1;
-      snapshot_row[t] = w.M[last * n + t];
-      snapshot_col[t] = w.M[t * n + last];
+      snapshot_row[t] = w.M[row_at(last) + t];
+      snapshot_col[t] = w.M[row_at(t) + last];
     });
     int steps = 0;
     for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
@@ -538,7 +580,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
         if (pv < first) return;  // the block's steps are done
         const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
-        S* const Ai = inverse + i * n;
+        S* const Ai = inverse + row_at(i);
         for (int j = first + by_n.quotient(t); j < end; j += segments) {
           const S a_pj = row[j];
           S x;
@@ -576,7 +618,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         return;
       }
       S s = S(0);
-      for (int j = inverse_begin(t); j < inverse_end(t); ++j) s += inverse[t * n + j] * (w.u[j] - w.c[j]);
+      for (int j = inverse_begin(t); j < inverse_end(t); ++j) s += inverse[inverse_row(t) + j] * (w.u[j] - w.c[j]);
       w.qdd[t] = s;
     });
     g.sync();
@@ -619,12 +661,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.sync();
     g.for_each(n * n, [&](int t) {
       const int a = by_n.quotient(t), bb = t - a * n;
+      if (unstored(a, bb)) return;
       if (m.contains(a, bb)) {
-        w.dtau_dq[a * n + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
+        w.dtau_dq[row_at(a) + bb] = dot6(w.axis + 6 * a, w.Dq + 6 * bb);
         if (a != bb)
-          w.dtau_dq[bb * n + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
+          w.dtau_dq[row_at(bb) + a] = dot6(w.Ic_S + 6 * bb, w.beta + 6 * a) + dot6(w.Bc_t_S + 6 * bb, w.alpha + 6 * a);
       } else if (!m.contains(bb, a)) {
-        w.dtau_dq[t] = S(0);
+        w.dtau_dq[kPacked ? row_at(a) + bb : t] = S(0);
       }
     });
     g.sync();
@@ -633,10 +676,19 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // the other outputs: qdd, then the d/dq entries and M^-1 of the stages that ran
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
   const int dq_items = want_dq ? product_items : 0;
+  // entry e of M^-1 computed here (the MINV output never comes with a caller's, block_kernel_supports)
+  const auto minv_entry = [&](int e) {
+    if constexpr (kPacked) {
+      const int i = by_n.quotient(e), j = e - i * n;
+      return unstored(i, j) ? S(0) : inverse[row_at(i) + j];
+    } else {
+      return inverse[e];
+    }
+  };
   g.for_each(n + dq_items + (want_minv ? n * n : 0), [&](int t) {
     if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
     else if (t < n + dq_items) minus_product_rows(w.dtau_dq, t - n, out_dq);
-    else write(inverse[t - n - dq_items], out_minv, state * mat + (t - n - dq_items));
+    else write(minv_entry(t - n - dq_items), out_minv, state * mat + (t - n - dq_items));
   });
   g.sync();
   if (g.rank == 0 && active) {

@@ -9,10 +9,24 @@
 
 namespace rbdgrad::cuda {
 
-// Bytes of the robot's constants at the start of a block's shared memory (16-byte aligned).
+// The compact block kernel (kCompact) fits more states an SM where shared memory is what limits
+// them (talos_reduced: four where the other takes three): the robot's scalar constants stay in
+// device memory (the placement and inertia passes read each once), only its tree goes to shared
+// memory, and M, M^-1 and d tau/d u are packed by the roots' blocks (ModelView::matrix_row; a
+// caller's M^-1 stays dense). The NVRTC build caps its registers to match (register_cap.hpp).
+
+// The robot's ints a block copies to shared memory: the tree, and (compact) where the packed
+// matrices' rows start (the last of ModelLayout's ints, ModelView::matrix_row)
+RBDGRAD_HD int block_model_ints(int nv, bool compact) {
+  return compact ? ModelLayout::ints(nv) : ModelLayout::matrix_row(nv);
+}
+
+// Bytes of the robot's constants at the start of a block's shared memory (16-byte aligned): its
+// scalars and its tree, or (compact) its tree alone.
 template <class S>
-RBDGRAD_HD std::size_t block_model_bytes(int nv) {
-  const std::size_t bytes = ModelLayout::scalars(nv) * sizeof(S) + ModelLayout::ints(nv) * sizeof(int);
+RBDGRAD_HD std::size_t block_model_bytes(int nv, bool compact = false) {
+  const std::size_t bytes =
+      (compact ? 0 : ModelLayout::scalars(nv) * sizeof(S)) + block_model_ints(nv, compact) * sizeof(int);
   return (bytes + 15) / 16 * 16;
 }
 
@@ -25,14 +39,15 @@ __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 #endif
 
 // IO: the batch's scalar type, S or (an f32 batch computed in f64) float. kStages: a scene's
-// fixed stages (block_stages), or decided per batch.
-template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch>
+// fixed stages (block_stages), or decided per batch. kCompact: above.
+template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch, bool kCompact = false>
 __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int nv = FixedSizes<Model>::nv > 0 ? FixedSizes<Model>::nv : global_model.nv;
   // the robot's constants into shared memory first, by the whole block: the passes read them
   // over and over, and a chain of global loads (parent of parent ...) would cost a round trip each
-  const int scalars = ModelLayout::scalars(nv), ints = ModelLayout::ints(nv);
+  // (compact: the tree alone)
+  const int scalars = kCompact ? 0 : ModelLayout::scalars(nv), ints = block_model_ints(nv, kCompact);
   S* model_scalars = reinterpret_cast<S*>(shared);
   int* model_ints = reinterpret_cast<int*>(model_scalars + scalars);
   const int threads = static_cast<int>(blockDim.x * blockDim.y);
@@ -42,9 +57,11 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
 #endif
 
   const bool with_aba = block_uses_aba<S>(batch.tau_input);
-  S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv)) +
-            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba);
-  const BlockWorkspace<S> w(base, nv, with_aba);
+  const int matrix_scalars = kCompact ? global_model.matrix_scalars : nv * nv;
+  const int minv_scalars = kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv;
+  S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv, kCompact)) +
+            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrix_scalars, minv_scalars);
+  const BlockWorkspace<S> w(base, nv, with_aba, matrix_scalars, minv_scalars);
   ThreadGroup g;
   g.rank = static_cast<int>(threadIdx.x);
   g.size = static_cast<int>(blockDim.x);
@@ -58,14 +75,17 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
   for (int e = tid; e < scalars; e += threads) model_scalars[e] = global_model.joint_rotation[e];
   for (int e = tid; e < ints; e += threads) model_ints[e] = global_model.parent[e];
   __syncthreads();
-  const Model model(model_view(nv, global_model.levels, model_scalars, model_ints, global_model.gravity));
+  // (the other kernel's view has no matrix_row in shared memory, and its passes do not read one)
+  const Model model(model_view(nv, global_model.levels, global_model.matrix_scalars,
+                               kCompact ? global_model.joint_rotation : model_scalars, model_ints,
+                               global_model.gravity));
 #if defined(RBDGRAD_BLOCK_PASS_TIMING)
   if (k == 0) {
     g.clocks = g_block_pass_clocks + 2;
     if (g.rank == 0) g_block_pass_clocks[1] = clock64();
   }
 #endif
-  block_evaluate_state<S, Model, IO, kStages>(model, w, batch, active ? k : batch.n - 1, active, g);
+  block_evaluate_state<S, Model, IO, kStages, kCompact>(model, w, batch, active ? k : batch.n - 1, active, g);
 }
 #endif
 

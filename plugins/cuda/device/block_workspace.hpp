@@ -38,8 +38,8 @@ struct BlockWorkspace {
   // per body: the inertia at the world origin and its subtree sum (symmetric, kSymmetricStride
   // apart), the B operator and its subtree sum (6x6 row-major, kBodyMatrixStride apart)
   S *I, *B, *Ic, *Bc;
-  // nv x nv row-major: M (M^-1 after the inversion, in place, or the caller's); d tau/d qd, then
-  // d tau/d q, in one matrix
+  // nv x nv row-major, or packed by the roots' blocks (the compact kernel): M (M^-1 after the
+  // inversion, in place, or the caller's, always dense); d tau/d qd, then d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
@@ -53,14 +53,18 @@ struct BlockWorkspace {
   static constexpr int kInversionScalarsPerJoint = 5;
   static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
 
-  // scalars of S per state
-  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
+  // scalars of S per state, M and d tau/d u dense (nv x nv each)
+  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) { return scalars(nv, with_aba, nv * nv, nv * nv); }
+  // the same with M (M^-1) in minv_scalars and d tau/d u in matrix_scalars (the compact kernel:
+  // packed by the roots' blocks, ModelView::matrix_row; M^-1 dense where the caller brings it)
+  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, int matrix_scalars, int minv_scalars) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    return (5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride + (with_aba ? 146 : 0)) * n + 2 * n * n +
-           kStatusScalars;
+    return (5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride + (with_aba ? 146 : 0)) * n +
+           static_cast<std::size_t>(matrix_scalars) + static_cast<std::size_t>(minv_scalars) + kStatusScalars;
   }
 
-  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : next_(base) {
+  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : BlockWorkspace(base, nv, with_aba, nv * nv, nv * nv) {}
+  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, int matrix_scalars, int minv_scalars) : next_(base) {
     const int n = nv;
     // arrays rather than initializer lists: device code has no std::initializer_list
     S** const vectors[] = {&q, &qd, &u, &qdd, &c};
@@ -79,8 +83,8 @@ struct BlockWorkspace {
     Bc = take(kBodyMatrixStride * n);
     S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
     for (int k = 0; k < 5; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
-    M = take(n * n);
-    dtau_dq = dtau_dqd = take(n * n);
+    M = take(minv_scalars);
+    dtau_dq = dtau_dqd = take(matrix_scalars);
     if (with_aba) {
       f_ext = take(6 * n);
       I_joint = take(36 * n);

@@ -4,7 +4,8 @@
 // both input kinds, every output case the block kernel takes. Each case also runs with the items
 // of every pass in reverse order and as the GPU's group of 256 threads: the results must not
 // change, which shows that no item of a pass depends on another (on the GPU, such a dependency
-// would be a race) and that the items a group's size shapes cover the same entries.
+// would be a race) and that the items a group's size shapes cover the same entries. The compact
+// kernel's packed matrices (block_kernel_entry.hpp) give the same bits as the dense ones.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -23,17 +24,24 @@ namespace {
 
 constexpr std::size_t kStates = 40;
 
+// Scalars after a state's working set that no pass may write (checked after every state).
+constexpr std::size_t kGuardScalars = 64;
+
 // Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
-// as the kernel compiled for it at load does.
-template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch>
+// as the kernel compiled for it at load does. kPacked: the compact kernel's matrices, its working
+// set sized as the kernel sizes it (block_state_scalars).
+template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false>
 std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
                                              bool tau_input, bool reverse) {
   const cuda::FlatModel<S> flat(model);
   const Model m(flat.host_view());
   const bool with_aba = cuda::block_uses_aba<S>(tau_input);
-  std::vector<S> shared(cuda::BlockWorkspace<S>::scalars(model.nv, with_aba), poison<S>());
-  const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
   cuda::BatchPointers<S> b = a.pointers(c, tau_input);
+  const std::size_t scalars = cuda::block_state_scalars(flat.host_view(), tau_input, b.minv != nullptr, kPacked);
+  std::vector<S> shared(scalars + kGuardScalars, poison<S>());
+  const int dense = model.nv * model.nv;
+  const int matrix = kPacked ? flat.matrix_scalars : dense;
+  const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba, matrix, kPacked && b.minv == nullptr ? matrix : dense);
   std::vector<std::uint32_t> status(a.n, 0xffffffffu);
   b.status = status.data();
   cuda::ThreadGroup g;
@@ -42,7 +50,9 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   if (reverse) g.size = 256;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
-    cuda::block_evaluate_state<S, Model, S, kStages>(m, w, b, k, true, g);
+    cuda::block_evaluate_state<S, Model, S, kStages, kPacked>(m, w, b, k, true, g);
+    for (std::size_t e = scalars; e < shared.size(); ++e)
+      EXPECT_EQ(0, std::memcmp(&shared[e], &shared.back(), sizeof(S))) << "state " << k << " wrote past its working set";
   }
   return status;
 }
@@ -70,6 +80,16 @@ void check_robot(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(a.out[f].data(), reversed.out[f].data(), a.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " changed with the items in reverse order, as 256 threads";
+
+      // packed by the roots' blocks, in reverse order as 256 threads: the same bits
+      CudaBatch<S> packed(states, model.nv, tau_input);
+      packed.poison();
+      const std::vector<std::uint32_t> packed_status =
+          run_block_on_host<S, cuda::ModelView<S>, cuda::block_stages::kPerBatch, true>(model, packed, c, tau_input, true);
+      ASSERT_EQ(status, packed_status) << where << ", packed";
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(a.out[f].data(), packed.out[f].data(), a.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the matrices packed";
     }
   }
 }
@@ -105,6 +125,15 @@ void check_fixed_sizes(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), fixed.out[f].data(), run_time.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed";
+      // and the compact kernel compiled for the robot: sizes fixed, matrices packed
+      CudaBatch<S> compact(states, model.nv, tau_input);
+      compact.poison();
+      const auto s3 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>, cuda::block_stages::kPerBatch, true>(
+          model, compact, c, tau_input, false);
+      ASSERT_EQ(s1, s3) << where << ", compact";
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), compact.out[f].data(), run_time.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed, packed";
     }
   }
 }
@@ -114,6 +143,7 @@ TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
   check_fixed_sizes<float, 7, 7>("iiwa14");
   check_fixed_sizes<double, 12, 3>("hyq");
   check_fixed_sizes<float, 12, 3>("hyq");
+  check_fixed_sizes<double, 32, 10>("talos_reduced");
 }
 
 // The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's
@@ -140,6 +170,33 @@ TEST(BlockStateOnHost, RootsSplitTheJointsIntoBlocks) {
     }
     if (std::string(robot) == "iiwa14") {
       EXPECT_EQ(block_sizes, (std::vector<int>{7}));
+    }
+  }
+}
+
+// The compact kernel's packing (ModelView::matrix_row): the blocks' entries one after the other,
+// each stored once, nothing between; a tree with one root packs nothing (row i at i nv).
+TEST(BlockStateOnHost, MatrixRowsPackTheBlocks) {
+  for (const char* robot : {"iiwa14", "talos_reduced", "hyq", "random_tree", "wide_tree"}) {
+    const Model model = robot_model(robot);
+    const cuda::FlatModel<double> flat(model);
+    const cuda::ModelView<double> m = flat.host_view();
+    ASSERT_EQ(m.matrix_scalars, flat.matrix_scalars) << robot;
+    std::vector<int> seen(static_cast<std::size_t>(m.matrix_scalars), 0);
+    for (int i = 0; i < m.nv; ++i)
+      for (int j = m.root_of[i]; j < m.subtree_end[m.root_of[i]]; ++j) {
+        const int at = m.matrix_row[i] + j;
+        ASSERT_GE(at, 0) << robot << " (" << i << ", " << j << ")";
+        ASSERT_LT(at, m.matrix_scalars) << robot << " (" << i << ", " << j << ")";
+        ++seen[static_cast<std::size_t>(at)];
+      }
+    for (std::size_t e = 0; e < seen.size(); ++e) ASSERT_EQ(seen[e], 1) << robot << " packed entry " << e;
+    if (std::string(robot) == "talos_reduced") {
+      EXPECT_EQ(m.matrix_scalars, 6 * 6 + 6 * 6 + 20 * 20);
+    }
+    if (std::string(robot) == "iiwa14") {
+      EXPECT_EQ(m.matrix_scalars, 49);
+      for (int i = 0; i < m.nv; ++i) EXPECT_EQ(m.matrix_row[i], 7 * i);
     }
   }
 }

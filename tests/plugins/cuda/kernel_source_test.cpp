@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -77,6 +78,20 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6>");
   EXPECT_THAT(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).source,
               HasSubstr("stages fixed: d/dqd, M^-1 supplied"));
+  // the compact kernel: the batch's scalars and the stages named before it; its register cap an
+  // option of the compiler
+  const cuda::NvrtcProgram compact =
+      cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, 64});
+  EXPECT_EQ(compact.name_expressions.at(0),
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, double, -1, true>");
+  EXPECT_THAT(compact.options, ::testing::Contains("--maxrregcount=64"));
+  EXPECT_THAT(compact.source, HasSubstr("compact block kernel"));
+  EXPECT_THAT(compact.source, HasSubstr("at most 64 registers a thread"));
+  EXPECT_EQ(compact.name, "block_kernel_iiwa14_f64_compact.cu");
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).name, "block_kernel_iiwa14_f64.cu");
+  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6, {true, 0}).name_expressions.at(0),
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6, true>");
+  EXPECT_THAT(f64.options, ::testing::Not(::testing::Contains(::testing::StartsWith("--maxrregcount"))));
   bool entry = false;
   for (const cuda::EmbeddedHeader& h : f64.headers) entry |= std::string(h.name) == "block_kernel_entry.hpp";
   EXPECT_TRUE(entry) << "the entry header is not embedded";
@@ -150,6 +165,60 @@ TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
   }
 }
 
+// ptxas's report (--ptxas-options=--verbose, in NVRTC's log) of a compiled kernel: -1 where absent
+struct PtxasReport {
+  int registers = -1, spill_stores = -1, spill_loads = -1;
+};
+PtxasReport ptxas_report(const std::string& log) {
+  PtxasReport r;
+  const auto number_before = [&](const std::string& what) {
+    const std::size_t at = log.find(what);
+    if (at == std::string::npos) return -1;
+    std::size_t begin = at;
+    while (begin > 0 && log[begin - 1] == ' ') --begin;
+    std::size_t digits = begin;
+    while (digits > 0 && std::isdigit(static_cast<unsigned char>(log[digits - 1]))) --digits;
+    return digits < begin ? std::stoi(log.substr(digits, begin - digits)) : -1;
+  };
+  r.spill_stores = number_before("bytes spill stores");
+  r.spill_loads = number_before("bytes spill loads");
+  const std::size_t used = log.find("Used ");
+  if (used != std::string::npos) r.registers = std::stoi(log.substr(used + 5));
+  return r;
+}
+
+// The compact kernel (device/block_kernel_entry.hpp) for talos_reduced, the robot it is for: its
+// f64 builds hold the register cap an H200 gives them (register_cap.hpp: 64, four blocks an SM),
+// by ptxas's own report, spilling at most two doubles (8 bytes of stores and loads with CUDA 13.0,
+// where the kernel left to itself takes 72: which values spill moves with any change, and whether
+// they cost more than the fourth state gains is for a GPU to say); its f32 build (no cap) compiles.
+TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCap) {
+  SKIP_WITHOUT_NVRTC();
+  const Model model = load_embedded("talos_reduced");
+  for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
+    cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, {true, 64});
+    EXPECT_THAT(p.source, HasSubstr("compact block kernel")) << cuda::kernel_scalars_name(scalars);
+    EXPECT_THAT(p.options, ::testing::Contains("--maxrregcount=64"));
+    p.options.push_back("--ptxas-options=--verbose");
+    cuda::NvrtcOutput out;
+    const Status s = cuda::nvrtc_compile(p, out);
+    ASSERT_TRUE(s.is_ok()) << cuda::kernel_scalars_name(scalars) << ": " << s.message();
+    const PtxasReport r = ptxas_report(out.log);
+    std::printf("talos_reduced compact %s: %d registers, %d bytes spill stores, %d bytes spill loads\n",
+                cuda::kernel_scalars_name(scalars), r.registers, r.spill_stores, r.spill_loads);
+    EXPECT_GT(r.registers, 0) << out.log;
+    EXPECT_LE(r.registers, 64) << out.log;
+    EXPECT_GE(r.spill_stores, 0) << out.log;
+    EXPECT_LE(r.spill_stores, 16) << out.log;
+    EXPECT_LE(r.spill_loads, 16) << out.log;
+  }
+  cuda::NvrtcOutput out;
+  const Status s = cuda::nvrtc_compile(
+      cuda::block_kernel_program(model, cuda::KernelScalars::kF32, 90, cuda::block_stages::kPerBatch, {true, 0}), out);
+  ASSERT_TRUE(s.is_ok()) << s.message();
+  EXPECT_EQ(out.kernel_symbols.size(), 1u);
+}
+
 // A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.
 TEST(KernelSource, SceneStagesCompileToLessCode) {
   SKIP_WITHOUT_NVRTC();
@@ -194,6 +263,13 @@ TEST(KernelCache, KeysDifferWithEveryInput) {
   EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90), "13.0"));
   EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 100), "13.0"));
   EXPECT_NE(key, cuda::kernel_cache_key(cuda::block_kernel_program(load_embedded("panda"), cuda::KernelScalars::kF64, 90), "13.0"));
+  const auto compact_key = [&](int cap) {
+    return cuda::kernel_cache_key(
+        cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, cap}),
+        "13.0");
+  };
+  EXPECT_NE(key, compact_key(0));
+  EXPECT_NE(compact_key(0), compact_key(64));
   cuda::NvrtcProgram other_header = p;
   other_header.headers.pop_back();
   EXPECT_NE(key, cuda::kernel_cache_key(other_header, "13.0"));

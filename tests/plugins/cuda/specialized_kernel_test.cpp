@@ -38,10 +38,12 @@ testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
   return a;
 }
 
-// warp: the warp kernel's two builds (models of up to kMaxWarpNv joints), else the block kernel's
+// warp: the warp kernel's two builds (models of up to kMaxWarpNv joints), else the block kernel's.
+// with_minv: the caller brings M^-1 (a random matrix, its entries between the tree's blocks too),
+// and the outputs are those the block kernel takes with it (no M^-1 out).
 template <class S>
 void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
-                     F32Compute f32_compute = F32Compute::kF32, bool warp = false) {
+                     F32Compute f32_compute = F32Compute::kF32, bool warp = false, bool with_minv = false) {
   const std::uint32_t precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
   // f64: the two builds differ only in constant folding and unrolling, which may contract other
   // multiply-adds; f32 the same, at its own rounding. Relative to the state's largest entry of
@@ -60,20 +62,26 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
                                 (input == RBDGRAD_INPUT_TAU ? " from tau" : " from qdd") + ", " + std::to_string(n) +
                                 " states";
       auto generic = random_states<S>(nv, n, static_cast<unsigned>(n) + input);
+      if (with_minv) {
+        std::mt19937 rng(static_cast<unsigned>(n));
+        std::uniform_real_distribution<double> entry(-1.0, 1.0);
+        for (S& x : generic.minv) x = static_cast<S>(entry(rng));
+      }
+      const std::uint32_t outputs = with_minv ? kGradient & ~RBDGRAD_OUTPUT_MINV : kGradient;
       auto specific = generic;
       KernelOptions options;
       options.f32_compute = f32_compute;
       options.warp_kernel = warp;
       options.robot_specific = false;
       ASSERT_TRUE(instance.set_kernel_options(options));
-      rbdgrad_batch b = generic.batch(precision, input, kGradient, false, false);
+      rbdgrad_batch b = generic.batch(precision, input, outputs, with_minv, false);
       ASSERT_TRUE(instance.compute(&b)) << where;
       ASSERT_TRUE(instance.last_used_block_kernel()) << where;
       ASSERT_EQ(instance.last_used_warp_kernel(), warp) << where;
       ASSERT_FALSE(instance.last_used_robot_specific_kernel()) << where;
       options.robot_specific = true;
       ASSERT_TRUE(instance.set_kernel_options(options));
-      b = specific.batch(precision, input, kGradient, false, false);
+      b = specific.batch(precision, input, outputs, with_minv, false);
       ASSERT_TRUE(instance.compute(&b)) << where;
       ASSERT_TRUE(instance.last_used_robot_specific_kernel()) << where;
       ASSERT_EQ(instance.last_used_warp_kernel(), warp) << where;
@@ -81,6 +89,7 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
       for (const std::uint32_t flag : {RBDGRAD_OUTPUT_QDD, RBDGRAD_OUTPUT_MINV, RBDGRAD_OUTPUT_DQDD_DQ,
                                        RBDGRAD_OUTPUT_DQDD_DQD}) {
         if (flag == RBDGRAD_OUTPUT_QDD && input == RBDGRAD_INPUT_QDD) continue;  // the input itself
+        if ((outputs & flag) == 0) continue;
         const std::vector<S>& want = generic.out(flag);
         const std::vector<S>& got = specific.out(flag);
         const std::size_t per_state = want.size() / n;
@@ -134,6 +143,33 @@ TEST(CudaRobotSpecificKernel, WarpKernelMatchesTheGenericOneOnEveryRobot) {
     compare_kernels<double>(*instance, std::string(name), model.nv, F32Compute::kF32, true);
     if (instance->f32_in_f64())
       compare_kernels<float>(*instance, std::string(name), model.nv, F32Compute::kF64, true);
+  }
+}
+
+// The compact block kernel (option block_compact: the robot's scalar constants in device memory,
+// the matrices packed by the roots' blocks, its registers capped) against the generic one: a
+// humanoid whose legs and torso pack, a quadruped whose legs do, a chain that packs nothing; with
+// M^-1 computed and brought by the caller.
+TEST(CudaRobotSpecificKernel, CompactKernelMatchesTheGenericOne) {
+  for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
+    const Model model = testing::load_embedded(name);
+    std::unique_ptr<CudaInstance> instance;
+    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+    KernelOptions options;
+    options.block_compact = true;
+    ASSERT_TRUE(instance->set_kernel_options(options));
+    if (Status s = instance->specialize(""); !s) {
+      if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
+      FAIL() << name << ": " << s.message();
+    }
+    EXPECT_THAT(instance->kernel_description(), HasSubstr(", compact")) << name;
+    std::printf("%s: %s\n", name, instance->kernel_description().c_str());
+    for (const bool with_minv : {false, true}) {
+      compare_kernels<double>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
+      compare_kernels<float>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
+      if (instance->f32_in_f64())
+        compare_kernels<float>(*instance, name, model.nv, F32Compute::kF64, false, with_minv);
+    }
   }
 }
 

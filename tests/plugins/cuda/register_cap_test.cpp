@@ -1,0 +1,91 @@
+// Tests for plugins/cuda/register_cap.hpp (the compact block kernel's register cap) with an H200's
+// limits, and the compact kernel's shared memory it starts from (block_launch.hpp). No GPU needed.
+#include <gtest/gtest.h>
+
+#include "../../support/test_models.hpp"
+#include "block_launch.hpp"
+#include "flat_model.hpp"
+#include "register_cap.hpp"
+
+namespace rbdgrad::testing {
+namespace {
+
+// cudaDeviceProp of an H200 (and of an H100 SXM: the same SM)
+cuda::SmLimits h200() {
+  cuda::SmLimits sm;
+  sm.shared_bytes = 233472;  // 228 KiB
+  sm.reserved_shared_bytes = 1024;
+  sm.registers = 65536;
+  sm.max_threads = 2048;
+  sm.max_blocks = 32;
+  return sm;
+}
+
+// Shared memory of a block of one state at 256 threads (large batches of talos_reduced) for an f64
+// batch from tau without a caller's M^-1, compact or not.
+std::size_t talos_block_bytes(bool compact, bool minv_supplied = false) {
+  const cuda::FlatModel<double> flat(load_embedded("talos_reduced"));
+  cuda::BatchPointers<double> batch;
+  batch.tau_input = true;
+  const double minv = 0;
+  if (minv_supplied) batch.minv = &minv;
+  const cuda::BlockShape shape{256, 1};
+  return compact ? cuda::compact_block_shared_bytes(flat.host_view(), batch, shape)
+                 : cuda::block_shared_bytes<double>(flat.nv, true, shape);
+}
+
+TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
+  const cuda::SmLimits sm = h200();
+  // the other kernel: 73.8 KiB a block, three an SM, no cap needed (ptxas takes 66 registers)
+  EXPECT_EQ(talos_block_bytes(false), 73760u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(false), 256), 3);
+  // compact: 912 bytes of the tree and 55,440 of working set (M and d tau/d u 472 scalars each)
+  EXPECT_EQ(talos_block_bytes(true), 912u + 55440u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(true), 256), 4);
+  // 4 blocks of 8 warps: 8 warps on each of the 4 sub-partitions, 16K registers each
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(true), 256), 64);
+  // a caller's M^-1 stays dense: three again, and no cap
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(true, true), 256), 3);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(true, true), 256), 80);
+}
+
+TEST(RegisterCap, NoCapBelowWhatSpillsOrAboveTheMost) {
+  const cuda::SmLimits sm = h200();
+  // iiwa14's blocks (11 KiB, 64 threads): 18 an SM by shared memory would need 56 registers
+  const cuda::FlatModel<double> flat(load_embedded("iiwa14"));
+  cuda::BatchPointers<double> batch;
+  batch.tau_input = true;
+  const std::size_t iiwa = cuda::compact_block_shared_bytes(flat.host_view(), batch, cuda::BlockShape{64, 1});
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, iiwa, 64), 18);
+  EXPECT_EQ(cuda::block_register_cap(sm, iiwa, 64), 0);
+  // one block of 32 threads an SM: any count fits
+  EXPECT_EQ(cuda::block_register_cap(sm, 200000, 32), 0);
+  // nothing fits: no cap
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, 240000, 256), 0);
+  EXPECT_EQ(cuda::block_register_cap(sm, 240000, 256), 0);
+}
+
+TEST(RegisterCap, CountsWarpsBySubPartition) {
+  const cuda::SmLimits sm = h200();
+  // three blocks of 96 threads (3 warps): 9 warps, 3 on one sub-partition: 16384 / 96 = 170 -> 168
+  EXPECT_EQ(cuda::block_register_cap(sm, 70000, 96), 168);
+  // the same by the SM's total would allow 65536 / 288 = 227
+  // threads limit as well: 2048 / 1024 = 2 blocks of 1024 threads, 64 warps, 16 a partition
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, 1000, 1024), 2);
+  EXPECT_EQ(cuda::block_register_cap(sm, 1000, 1024), 0);  // 32 registers: below kMinRegisterCap
+}
+
+// The packed matrices are what the compact kernel saves beyond the constants: a one-root tree has
+// nothing to pack, and a block-diagonal tree all its off-block entries.
+TEST(RegisterCap, CompactWorkingSetPacksOnlyBetweenBlocks) {
+  for (const char* robot : {"iiwa14", "talos_reduced"}) {
+    const cuda::FlatModel<double> flat(load_embedded(robot));
+    const int n = flat.nv;
+    const std::size_t dense = cuda::block_state_scalars(flat.host_view(), true, false, false);
+    const std::size_t compact = cuda::block_state_scalars(flat.host_view(), true, false, true);
+    EXPECT_EQ(dense - compact, 2u * static_cast<std::size_t>(n * n - flat.matrix_scalars)) << robot;
+  }
+}
+
+}  // namespace
+}  // namespace rbdgrad::testing
