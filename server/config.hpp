@@ -67,7 +67,7 @@ struct ModelConfig {
   // other joints (lock_joints: each locked body folded into the one it hangs from), so every
   // backend works on the smaller tree, and requests, results and GetModel use the kept joints
   // in their order. Default none.
-  std::vector<std::pair<std::string, double>> locked_joints;
+  std::vector<std::pair<std::string, double>> locked_joints{};  // {}: a list that stops before it leaves it empty
 
   bool operator==(const ModelConfig&) const = default;
 };
@@ -113,7 +113,7 @@ struct PluginConfig {
   // library more than once, e.g. cuda0 and cuda1 with options {device: "0"} and {device: "1"}: each
   // is a backend of its own (instances, latency models, queue), and a request's backend hint names
   // the kind (the plugin's own name), so BACKEND_CUDA may go to either.
-  std::string name;
+  std::string name{};
 
   bool operator==(const PluginConfig&) const = default;
 };

@@ -150,16 +150,16 @@ Status Daemon::create(DaemonOptions options, std::unique_ptr<Daemon>& out) {
   }
   Daemon* self = d.get();
   auto queues = [self] {
-    std::vector<QueueSample> out;
+    std::vector<QueueSample> samples;
     for (const BackendState& b : self->backends_->backends()) {
       for (const auto& m : self->models_.models()) {
         const InstancePool* pool = self->backends_->pool(b.name, *m);
         if (pool == nullptr) continue;
         const PoolLoad load = pool->load();
-        out.push_back({b.name, m->name, load.queued, load.running, load.pending_us * 1e-6});
+        samples.push_back({b.name, m->name, load.queued, load.running, load.pending_us * 1e-6});
       }
     }
-    return out;
+    return samples;
   };
   auto in_flight = [self]() -> std::int64_t { return self->service_ ? self->service_->in_flight() : 0; };
   if (Status s = Metrics::create(cfg.metrics_listen, queues, in_flight, d->metrics_); !s) return s;

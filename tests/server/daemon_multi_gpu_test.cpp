@@ -173,8 +173,11 @@ TEST(DaemonMultiGpu, AHintedRequestTimedOutOnOneGpuRunsOnTheOther) {
   EXPECT_THAT(text, HasSubstr("rbdgrad_backend_timeouts_total{backend=\"cuda0\"} 1"));
   EXPECT_THAT(text, HasSubstr("rbdgrad_backend_timeouts_total{backend=\"cuda1\"} 1"));
   // cuda1's call succeeded in the end; cuda0's late one too (the daemon waits for it as it stops)
-  for (const BackendState& b : daemon->backends().backends())
-    if (b.name == "cuda1") EXPECT_FALSE(daemon->scheduler().suspect(b));
+  for (const BackendState& b : daemon->backends().backends()) {
+    if (b.name == "cuda1") {
+      EXPECT_FALSE(daemon->scheduler().suspect(b));
+    }
+  }
   const auto t0 = std::chrono::steady_clock::now();
   daemon.reset();
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(3));

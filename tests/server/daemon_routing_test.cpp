@@ -370,8 +370,11 @@ TEST(DaemonRouting, AHungCallWithNowhereElseToGoIsWaitedFor) {
   EXPECT_EQ(resp.backend(), v1::BACKEND_FPGA);
   EXPECT_EQ(resp.failovers_size(), 0);
   EXPECT_THAT(daemon->metrics().text(), ::testing::HasSubstr("rbdgrad_backend_timeouts_total{backend=\"fpga\"} 1"));
-  for (const BackendState& b : daemon->backends().backends())
-    if (b.name == "fpga") EXPECT_FALSE(daemon->scheduler().suspect(b)) << "its call succeeded in the end";
+  for (const BackendState& b : daemon->backends().backends()) {
+    if (b.name == "fpga") {
+      EXPECT_FALSE(daemon->scheduler().suspect(b)) << "its call succeeded in the end";
+    }
+  }
 }
 
 // A large request split across the cpu and cuda fakes (cpu 300 us + 2 us/state, cuda 3000 us +
