@@ -188,11 +188,10 @@ PtxasReport ptxas_report(const std::string& log) {
 }
 
 // The compact kernel (device/block_kernel_entry.hpp) for talos_reduced, the robot it is for: its
-// f64 builds hold the register cap an H200 gives them (register_cap.hpp: 64, four blocks an SM),
-// by ptxas's own report, spilling at most two doubles (8 bytes of stores and loads with CUDA 13.0,
-// where the kernel left to itself takes 72: which values spill moves with any change, and whether
-// they cost more than the fourth state gains is for a GPU to say); its f32 build (no cap) compiles.
-TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCap) {
+// f64 builds hold the register cap an H200 gives them (register_cap.hpp: 64, four blocks an SM)
+// without spilling, by ptxas's own report (left to itself it takes 72; a change that makes it
+// spill at 64 needs measuring against the fourth state it buys); its f32 build (no cap) compiles.
+TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
   const Model model = load_embedded("talos_reduced");
   for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
@@ -208,9 +207,8 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCap) {
                 cuda::kernel_scalars_name(scalars), r.registers, r.spill_stores, r.spill_loads);
     EXPECT_GT(r.registers, 0) << out.log;
     EXPECT_LE(r.registers, 64) << out.log;
-    EXPECT_GE(r.spill_stores, 0) << out.log;
-    EXPECT_LE(r.spill_stores, 16) << out.log;
-    EXPECT_LE(r.spill_loads, 16) << out.log;
+    EXPECT_EQ(r.spill_stores, 0) << out.log;
+    EXPECT_EQ(r.spill_loads, 0) << out.log;
   }
   cuda::NvrtcOutput out;
   const Status s = cuda::nvrtc_compile(
