@@ -11,6 +11,14 @@ endif()
 add_library(rbdgrad_arch INTERFACE)
 if(RBDGRAD_NATIVE)
   target_compile_options(rbdgrad_arch INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-march=native>)
+  # GCC 12.0-12.2 (Debian 12's is 12.2) warns inside its own AVX-512 intrinsics, whose undefined
+  # vectors initialize themselves (`__m512d __Y = __Y;`, GCC bug 105593, fixed in 12.3): through
+  # Eigen that is about 900 false -Wmaybe-uninitialized warnings on a machine with AVX-512, which
+  # would hide real ones. The portable build (RBDGRAD_NATIVE=OFF) keeps the warning.
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_GREATER_EQUAL 12
+     AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 12.3)
+    target_compile_options(rbdgrad_arch INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-Wno-maybe-uninitialized>)
+  endif()
 endif()
 target_link_libraries(rbdgrad_options INTERFACE rbdgrad_arch)
 
