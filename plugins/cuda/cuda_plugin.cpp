@@ -102,6 +102,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_bool(options, "warp_kernel", warp_kernel); !s) return s;
     bool block_compact = false;
     if (Status s = option_bool(options, "block_compact", block_compact); !s) return s;
+    if (block_compact && !specialize)
+      return invalid_argument("option 'block_compact' needs 'specialize' (the compact kernel is compiled for the robot)");
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;

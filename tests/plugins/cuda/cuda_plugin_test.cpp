@@ -110,6 +110,10 @@ TEST(CudaPlugin, OptionsAreChecked) {
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   EXPECT_NE(e->message.find("option 'specialize' is 'yes'"), std::string::npos) << e->message;
+  create(api(), iiwa().desc(), {{"block_compact", "true"}, {"specialize", "false"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  EXPECT_NE(e->message.find("option 'block_compact' needs 'specialize'"), std::string::npos) << e->message;
   for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
                                      {"warp_kernel", "maybe"}, {"block_compact", "sometimes"}}) {
     create(api(), iiwa().desc(), {{name, value}}, &e);
