@@ -50,16 +50,12 @@ constexpr RBDGRAD_HD bool block_uses_aba(bool tau_input) {
   return SinglePrecision<S>::value && tau_input;
 }
 
-// Scalars of one state's working set for a batch (block_workspace.hpp), as the kernel carves them:
-// compact, M and d tau/d u packed by the roots' blocks (block_kernel_entry.hpp; a caller's M^-1
-// stays dense), else dense.
+// Scalars of one state's working set for a batch (block_workspace.hpp), as the kernel carves them.
 template <class S>
 RBDGRAD_HD std::size_t block_state_scalars(const ModelView<S>& model, bool tau_input, bool minv_supplied,
                                            bool compact) {
-  const int dense = model.nv * model.nv;
-  const int matrix = compact ? model.matrix_scalars : dense;
-  return BlockWorkspace<S>::scalars(model.nv, block_uses_aba<S>(tau_input), matrix,
-                                    compact && !minv_supplied ? matrix : dense);
+  return BlockWorkspace<S>::scalars(model.nv, block_uses_aba<S>(tau_input),
+                                    block_matrices(model.nv, model.matrix_scalars, compact, minv_supplied));
 }
 
 namespace block {

@@ -57,11 +57,14 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
 #endif
 
   const bool with_aba = block_uses_aba<S>(batch.tau_input);
+  // block_matrices(nv, global_model.matrix_scalars, kCompact, batch.minv != nullptr) written out:
+  // through the call ptxas spills the compact kernel at its register cap (CUDA 13.0: 12 bytes),
+  // in this form it does not (KernelSource.CompactTalosKernelHoldsItsRegisterCapWithoutSpills)
   const int matrix_scalars = kCompact ? global_model.matrix_scalars : nv * nv;
-  const int minv_scalars = kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv;
+  const BlockMatrices matrices{matrix_scalars, kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv};
   S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv, kCompact)) +
-            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrix_scalars, minv_scalars);
-  const BlockWorkspace<S> w(base, nv, with_aba, matrix_scalars, minv_scalars);
+            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrices);
+  const BlockWorkspace<S> w(base, nv, with_aba, matrices);
   ThreadGroup g;
   g.rank = static_cast<int>(threadIdx.x);
   g.size = static_cast<int>(blockDim.x);

@@ -19,6 +19,17 @@ RBDGRAD_HD constexpr int symmetric_index(int r, int c) {
   return r <= c ? r * 6 - r * (r - 1) / 2 + (c - r) : c * 6 - c * (c - 1) / 2 + (r - c);
 }
 
+// Scalars of a state's d tau/d u (matrix) and M, M^-1 (minv): nv x nv each, or (the compact kernel,
+// block_kernel_entry.hpp) packed by the roots' blocks, ModelView::matrix_scalars of them, except
+// a caller's M^-1, which stays dense.
+struct BlockMatrices {
+  int matrix = 0, minv = 0;
+};
+RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact, bool minv_supplied) {
+  const int dense = nv * nv, matrix = compact ? packed_scalars : dense;
+  return {matrix, compact && !minv_supplied ? matrix : dense};
+}
+
 // The arrays whose lifetimes do not overlap share memory, so that three states of talos_reduced
 // fit an SM's shared memory (at most 66 KiB of working set each): f and E sit where the local
 // placements were (dead after the inertias), the external forces where Bc will be (without the
@@ -53,18 +64,19 @@ struct BlockWorkspace {
   static constexpr int kInversionScalarsPerJoint = 5;
   static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
 
-  // scalars of S per state, M and d tau/d u dense (nv x nv each)
-  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) { return scalars(nv, with_aba, nv * nv, nv * nv); }
-  // the same with M (M^-1) in minv_scalars and d tau/d u in matrix_scalars (the compact kernel:
-  // packed by the roots' blocks, ModelView::matrix_row; M^-1 dense where the caller brings it)
-  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, int matrix_scalars, int minv_scalars) {
+  // scalars of S per state, its matrices dense, or as `matrices` says
+  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
+    return scalars(nv, with_aba, block_matrices(nv, 0, false, false));
+  }
+  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, BlockMatrices matrices) {
     const std::size_t n = static_cast<std::size_t>(nv);
     return (5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride + (with_aba ? 146 : 0)) * n +
-           static_cast<std::size_t>(matrix_scalars) + static_cast<std::size_t>(minv_scalars) + kStatusScalars;
+           static_cast<std::size_t>(matrices.matrix) + static_cast<std::size_t>(matrices.minv) + kStatusScalars;
   }
 
-  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba) : BlockWorkspace(base, nv, with_aba, nv * nv, nv * nv) {}
-  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, int matrix_scalars, int minv_scalars) : next_(base) {
+  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba)
+      : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
+  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices) : next_(base) {
     const int n = nv;
     // arrays rather than initializer lists: device code has no std::initializer_list
     S** const vectors[] = {&q, &qd, &u, &qdd, &c};
@@ -83,8 +95,8 @@ struct BlockWorkspace {
     Bc = take(kBodyMatrixStride * n);
     S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
     for (int k = 0; k < 5; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
-    M = take(minv_scalars);
-    dtau_dq = dtau_dqd = take(matrix_scalars);
+    M = take(matrices.minv);
+    dtau_dq = dtau_dqd = take(matrices.matrix);
     if (with_aba) {
       f_ext = take(6 * n);
       I_joint = take(36 * n);

@@ -39,9 +39,8 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   cuda::BatchPointers<S> b = a.pointers(c, tau_input);
   const std::size_t scalars = cuda::block_state_scalars(flat.host_view(), tau_input, b.minv != nullptr, kPacked);
   std::vector<S> shared(scalars + kGuardScalars, poison<S>());
-  const int dense = model.nv * model.nv;
-  const int matrix = kPacked ? flat.matrix_scalars : dense;
-  const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba, matrix, kPacked && b.minv == nullptr ? matrix : dense);
+  const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba,
+                                  cuda::block_matrices(model.nv, flat.matrix_scalars, kPacked, b.minv != nullptr));
   std::vector<std::uint32_t> status(a.n, 0xffffffffu);
   b.status = status.data();
   cuda::ThreadGroup g;
