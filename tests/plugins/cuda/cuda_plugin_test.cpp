@@ -114,8 +114,18 @@ TEST(CudaPlugin, OptionsAreChecked) {
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
   EXPECT_NE(e->message.find("option 'block_compact' needs 'specialize'"), std::string::npos) << e->message;
+  create(api(), iiwa().desc(), {{"block_lane_inverse", "true"}, {"specialize", "false"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  EXPECT_NE(e->message.find("option 'block_lane_inverse' needs 'specialize'"), std::string::npos) << e->message;
+  // M^-1 by a warp's lanes takes groups of whole warps
+  create(api(), iiwa().desc(), {{"block_lane_inverse", "true"}, {"threads_per_state", "48"}}, &e);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+  EXPECT_NE(e->message.find("block_lane_inverse with 48 threads per state"), std::string::npos) << e->message;
   for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
-                                     {"warp_kernel", "maybe"}, {"block_compact", "sometimes"}}) {
+                                     {"warp_kernel", "maybe"}, {"block_compact", "sometimes"},
+                                     {"block_lane_inverse", "2"}}) {
     create(api(), iiwa().desc(), {{name, value}}, &e);
     ASSERT_TRUE(e) << name << "=" << value;
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
