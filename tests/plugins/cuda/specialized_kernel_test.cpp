@@ -146,6 +146,16 @@ TEST(CudaRobotSpecificKernel, WarpKernelMatchesTheGenericOneOnEveryRobot) {
   }
 }
 
+// The block kernels compared in f64, f32 and (where the GPU does) f32 computed in f64, with M^-1
+// computed and brought by the caller.
+void compare_block_kernels(CudaInstance& instance, const std::string& robot, int nv) {
+  for (const bool with_minv : {false, true}) {
+    compare_kernels<double>(instance, robot, nv, F32Compute::kF32, false, with_minv);
+    compare_kernels<float>(instance, robot, nv, F32Compute::kF32, false, with_minv);
+    if (instance.f32_in_f64()) compare_kernels<float>(instance, robot, nv, F32Compute::kF64, false, with_minv);
+  }
+}
+
 // The compact block kernel (option block_compact: the robot's scalar constants in device memory,
 // the matrices packed by the roots' blocks, its registers capped) against the generic one: a
 // humanoid whose legs and torso pack, a quadruped whose legs do, a chain that packs nothing; with
@@ -164,12 +174,7 @@ TEST(CudaRobotSpecificKernel, CompactKernelMatchesTheGenericOne) {
     }
     EXPECT_THAT(instance->kernel_description(), HasSubstr(", compact")) << name;
     std::printf("%s: %s\n", name, instance->kernel_description().c_str());
-    for (const bool with_minv : {false, true}) {
-      compare_kernels<double>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
-      compare_kernels<float>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
-      if (instance->f32_in_f64())
-        compare_kernels<float>(*instance, name, model.nv, F32Compute::kF64, false, with_minv);
-    }
+    compare_block_kernels(*instance, name, model.nv);
   }
 }
 
@@ -195,12 +200,7 @@ TEST(CudaRobotSpecificKernel, LaneInverseKernelMatchesTheGenericOne) {
       EXPECT_THAT(instance->kernel_description(), HasSubstr(", M^-1 by a warp's lanes (blocks of up to " + blocks))
           << name;
       std::printf("%s: %s\n", name, instance->kernel_description().c_str());
-      for (const bool with_minv : {false, true}) {
-        compare_kernels<double>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
-        compare_kernels<float>(*instance, name, model.nv, F32Compute::kF32, false, with_minv);
-        if (instance->f32_in_f64())
-          compare_kernels<float>(*instance, name, model.nv, F32Compute::kF64, false, with_minv);
-      }
+      compare_block_kernels(*instance, name, model.nv);
     }
   }
 }
