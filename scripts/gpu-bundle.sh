@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Packs what a lent GPU machine needs to check the CUDA plugin (the `device` tool's machines have
+# CUDA 13 and its tools, not the project's Debian libraries): a portable Release build for sm_90,
+# its CUDA test and benchmark programs, the plugin, the shared libraries they load beyond the C and
+# C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them there. Builds in
+# build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the second).
+#
+#   scripts/gpu-bundle.sh            # then, on the GPU machine: bash build-gpu-bundle/gpu-checks.sh
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+build=build-cuda/portable
+bundle=build-gpu-bundle
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRBDGRAD_NATIVE=OFF -DRBDGRAD_BUILD_BENCH=ON >/dev/null
+programs=(tests/plugins/cuda/plugin_cuda_tests tests/plugins/cuda/plugin_cuda_specialized_kernel_tests
+          tests/plugins/cuda/plugin_cuda_kernel_choice_tests bench/cuda_batch_bench bench/cuda_flop_count)
+targets=()
+for p in "${programs[@]}"; do targets+=("$(basename "$p")"); done
+cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rbdgrad_cuda
+
+rm -rf "$bundle"
+mkdir -p "$bundle/bin" "$bundle/lib"
+for p in "${programs[@]}"; do cp "$build/$p" "$bundle/bin/"; done
+cp "$build/plugins/cuda/librbdgrad_cuda.so" "$bundle/lib/"
+# the libraries the GPU machine's image lacks: everything but the C and C++ runtimes and CUDA's
+for f in "$bundle"/bin/* "$bundle"/lib/librbdgrad_cuda.so; do
+  ldd "$f" | awk '$3 ~ /^\// {print $3}'
+done | sort -u | grep -Ev '/(libc|libm|libgcc_s|libstdc\+\+|libpthread|libdl|librt|ld-linux[^/]*|libcuda|libnvrtc)\.so' |
+  while read -r lib; do cp -L "$lib" "$bundle/lib/"; done
+cp scripts/gpu-checks.sh "$bundle/"
+# the tests read their data from the source tree's path at build time, and load the plugin from
+# the build's path
+sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build/CMakeCache.txt" >"$bundle/source_dir"
+echo "$PWD/$build/plugins/cuda/librbdgrad_cuda.so" >"$bundle/plugin_path"
+git rev-parse --short HEAD >"$bundle/commit"
+git diff --quiet HEAD || echo "(with uncommitted changes)" >>"$bundle/commit"
+du -sh "$bundle"

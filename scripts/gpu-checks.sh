@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Runs the CUDA plugin's checks on a lent GPU machine from the bundle scripts/gpu-bundle.sh made
+# (carried as build-gpu-bundle/, the repository's working tree around it): the GPU tests,
+# compute-sanitizer's memcheck and racecheck on the tests given, and the benchmarks given. Writes
+# its logs and the benchmarks' JSON to $OUT (or ./gpu-checks-out); a step that fails is said so and
+# the next one still runs; the exit status is 1 if any failed.
+#
+#   bash build-gpu-bundle/gpu-checks.sh [SANITIZER_TEST_FILTER [BENCHMARK_FILTER]]
+#
+# SANITIZER_TEST_FILTER: a --gtest_filter for plugin_cuda_specialized_kernel_tests under both tools
+# (default: '*LaneInverse*:*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench
+# ('' skips it; default: the talos_reduced kernels' comparisons, docs/benchmarks/cuda.md).
+set -uo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+repo=$(cd "$here/.." && pwd)
+out=${OUT:-$repo/gpu-checks-out}
+mkdir -p "$out"
+export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+sanitize=${1:-'*LaneInverse*:*Compact*'}
+bench=${2-'cuda_pipeline/1chunks(-compact)?(-lanes)?(-192)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/'}
+failed=0
+step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last lines here
+  local name=$1 status=0
+  shift
+  echo "== $name: $*"
+  "$@" >"$out/$name.log" 2>&1 || status=$?
+  tail -n 3 "$out/$name.log" | sed 's/^/   /'
+  if [[ $status -eq 0 ]]; then
+    echo "   ok"
+  else
+    echo "   FAILED (exit $status)"
+    failed=1
+  fi
+}
+sanitizer=$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)
+
+# the test programs read the reference data under the source tree's path of the build, and load
+# the plugin from the build's path
+source_dir=$(cat "$here/source_dir")
+if [[ ! -e "$source_dir/tests/data" ]]; then
+  mkdir -p "$(dirname "$source_dir")"
+  ln -s "$repo" "$source_dir"
+fi
+plugin=$(cat "$here/plugin_path")
+if [[ ! -e "$plugin" ]]; then
+  mkdir -p "$(dirname "$plugin")"
+  ln -s "$here/lib/librbdgrad_cuda.so" "$plugin"
+fi
+echo "bundle of $(tr '\n' ' ' <"$here/commit"), on $(nvidia-smi -L 2>/dev/null | head -n 1), $(date -u +%FT%TZ)" |
+  tee "$out/about.txt"
+
+step tests "$here/bin/plugin_cuda_tests"
+step specialized "$here/bin/plugin_cuda_specialized_kernel_tests"
+step choice "$here/bin/plugin_cuda_kernel_choice_tests"
+step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 \
+  "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
+step racecheck "$sanitizer" --tool racecheck --error-exitcode 1 \
+  "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
+if [[ -n "$bench" ]]; then
+  step bench "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 --benchmark_filter="$bench" \
+    --benchmark_out="$out/bench.json" --benchmark_out_format=json
+fi
+exit "$failed"
