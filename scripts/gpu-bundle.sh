@@ -9,8 +9,8 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-build=build-cuda/portable
-bundle=build-gpu-bundle
+build="build-cuda/portable"
+bundle="build-gpu-bundle"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRBDGRAD_NATIVE=OFF -DRBDGRAD_BUILD_BENCH=ON >/dev/null
 programs=(tests/plugins/cuda/plugin_cuda_tests tests/plugins/cuda/plugin_cuda_specialized_kernel_tests
           tests/plugins/cuda/plugin_cuda_kernel_choice_tests bench/cuda_batch_bench bench/cuda_flop_count)
