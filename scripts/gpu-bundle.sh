@@ -4,8 +4,10 @@
 # its CUDA test and benchmark programs, the plugin, the shared libraries they load beyond the C and
 # C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them there. Builds in
 # build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the second).
+# Each REV given adds that commit's cuda_batch_bench (bin/cuda_batch_bench-REV, built from a
+# worktree in build-cuda/), which gpu-checks.sh times against this one's default kernel.
 #
-#   scripts/gpu-bundle.sh            # then, on the GPU machine: bash build-gpu-bundle/gpu-checks.sh
+#   scripts/gpu-bundle.sh [REV ...]  # then, on the GPU machine: bash build-gpu-bundle/gpu-checks.sh
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -22,6 +24,15 @@ rm -rf "$bundle"
 mkdir -p "$bundle/bin" "$bundle/lib"
 for p in "${programs[@]}"; do cp "$build/$p" "$bundle/bin/"; done
 cp "$build/plugins/cuda/librbdgrad_cuda.so" "$bundle/lib/"
+for rev in "$@"; do
+  name=$(git rev-parse --short "$rev^{commit}")
+  tree="build-cuda/src-$name"
+  [[ -d "$tree" ]] || git worktree add --detach "$tree" "$name" >/dev/null
+  cmake -S "$tree" -B "build-cuda/rev-$name" -DCMAKE_BUILD_TYPE=Release -DRBDGRAD_NATIVE=OFF \
+    -DRBDGRAD_BUILD_BENCH=ON >/dev/null
+  cmake --build "build-cuda/rev-$name" -j"$(nproc)" --target cuda_batch_bench
+  cp "build-cuda/rev-$name/bench/cuda_batch_bench" "$bundle/bin/cuda_batch_bench-$name"
+done
 # the libraries the GPU machine's image lacks: everything but the C and C++ runtimes and CUDA's
 for f in "$bundle"/bin/* "$bundle"/lib/librbdgrad_cuda.so; do
   ldd "$f" | awk '$3 ~ /^\// {print $3}'

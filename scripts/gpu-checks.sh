@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs the CUDA plugin's checks on a lent GPU machine from the bundle scripts/gpu-bundle.sh made
 # (carried as build-gpu-bundle/, the repository's working tree around it): the GPU tests,
-# compute-sanitizer's memcheck and racecheck on the tests given, and the benchmarks given. Writes
-# its logs and the benchmarks' JSON to $OUT (or ./gpu-checks-out); a step that fails is said so and
+# compute-sanitizer's memcheck and racecheck on the tests given, the benchmarks given, and the
+# earlier commits' default kernel against this one's where the bundle has them. Prints each step's
+# last lines; its logs and the benchmarks' JSON go to $OUT/gpu-checks.tgz (one file: the device
+# tool brings back 8 at most; $OUT defaults to ./gpu-checks-out). A step that fails is said so and
 # the next one still runs; the exit status is 1 if any failed.
 #
 #   bash build-gpu-bundle/gpu-checks.sh [SANITIZER_TEST_FILTER [BENCHMARK_FILTER]]
@@ -13,8 +15,9 @@
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
-out=${OUT:-$repo/gpu-checks-out}
-mkdir -p "$out"
+result=${OUT:-$repo/gpu-checks-out}
+out=$(mktemp -d)
+mkdir -p "$result"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 sanitize=${1:-'*LaneInverse*:*Compact*'}
 bench=${2-'cuda_pipeline/1chunks(-compact)?(-lanes)?(-192)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/'}
@@ -60,4 +63,16 @@ if [[ -n "$bench" ]]; then
   step bench "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 --benchmark_filter="$bench" \
     --benchmark_out="$out/bench.json" --benchmark_out_format=json
 fi
+# earlier commits' benchmark (gpu-bundle.sh REV): the default kernel alone at 65536 talos_reduced
+# states, this bundle's again after each, so that a drift of the machine shows
+kernel_alone='cuda_pipeline/1chunks/pinned/f(32|64)/talos_reduced/N65536/'
+for old in "$here"/bin/cuda_batch_bench-*; do
+  [[ -e "$old" ]] || continue
+  rev=${old##*-}
+  step "bench-$rev" "$old" --benchmark_min_time=0.05 --benchmark_filter="$kernel_alone" \
+    --benchmark_out="$out/bench-$rev.json" --benchmark_out_format=json
+  step "bench-after-$rev" "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 \
+    --benchmark_filter="$kernel_alone" --benchmark_out="$out/bench-after-$rev.json" --benchmark_out_format=json
+done
+tar czf "$result/gpu-checks.tgz" -C "$out" .
 exit "$failed"
