@@ -6,8 +6,9 @@
 // group meanwhile do the pass that the steps used to follow.
 //
 // The steps, their order and each entry's arithmetic are the group's: leaves first within each
-// block, the blocks side by side, so that the pivots (the core's D[k]), a failing state's joint
-// and the results are the same bits.
+// block, the blocks side by side, so that the pivots (the core's D[k]) and a failing state's joint
+// are the same, and the results the same bits where the compiler contracts both alike (the host
+// tests check the bits).
 //
 // Compiled as plain C++ (the host tests), one call runs all 32 lanes, each shuffle returning what
 // it returns on the GPU (lanes_exchange_inverse says how).
