@@ -12,6 +12,8 @@
 # SANITIZER_TEST_FILTER: a --gtest_filter for plugin_cuda_specialized_kernel_tests under both tools
 # (default: '*LaneInverse*:*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench
 # ('' skips it; default: the talos_reduced kernels' comparisons, docs/benchmarks/cuda.md).
+# SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
+# the first 100 kernel launches (the rest run unchecked, at speed).
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -36,6 +38,7 @@ step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last
   fi
 }
 sanitizer=$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)
+read -r -a sanitizer_options <<<"${SANITIZER_OPTIONS:-}"
 
 # the test programs read the reference data under the source tree's path of the build, and load
 # the plugin from the build's path
@@ -55,9 +58,9 @@ echo "bundle of $(tr '\n' ' ' <"$here/commit"), on $(nvidia-smi -L 2>/dev/null |
 step tests "$here/bin/plugin_cuda_tests"
 step specialized "$here/bin/plugin_cuda_specialized_kernel_tests"
 step choice "$here/bin/plugin_cuda_kernel_choice_tests"
-step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 \
+step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 "${sanitizer_options[@]}" \
   "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
-step racecheck "$sanitizer" --tool racecheck --error-exitcode 1 \
+step racecheck "$sanitizer" --tool racecheck --error-exitcode 1 "${sanitizer_options[@]}" \
   "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
 if [[ -n "$bench" ]]; then
   step bench "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 --benchmark_filter="$bench" \
