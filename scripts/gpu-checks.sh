@@ -13,7 +13,8 @@
 # (default: '*LaneInverse*:*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench
 # ('' skips it; default: the talos_reduced kernels' comparisons, docs/benchmarks/cuda.md).
 # SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
-# the first 100 kernel launches (the rest run unchecked, at speed).
+# the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests
+# sanitizers bench revs" to run (default all), so that a run can fit the device tool's 10 minutes.
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -55,14 +56,19 @@ fi
 echo "bundle of $(tr '\n' ' ' <"$here/commit"), on $(nvidia-smi -L 2>/dev/null | head -n 1), $(date -u +%FT%TZ)" |
   tee "$out/about.txt"
 
-step tests "$here/bin/plugin_cuda_tests"
-step specialized "$here/bin/plugin_cuda_specialized_kernel_tests"
-step choice "$here/bin/plugin_cuda_kernel_choice_tests"
-step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 "${sanitizer_options[@]}" \
-  "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
-step racecheck "$sanitizer" --tool racecheck --error-exitcode 1 "${sanitizer_options[@]}" \
-  "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
-if [[ -n "$bench" ]]; then
+steps=" ${STEPS:-tests sanitizers bench revs} "
+if [[ $steps == *" tests "* ]]; then
+  step tests "$here/bin/plugin_cuda_tests"
+  step specialized "$here/bin/plugin_cuda_specialized_kernel_tests"
+  step choice "$here/bin/plugin_cuda_kernel_choice_tests"
+fi
+if [[ $steps == *" sanitizers "* ]]; then
+  step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 "${sanitizer_options[@]}" \
+    "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
+  step racecheck "$sanitizer" --tool racecheck --error-exitcode 1 "${sanitizer_options[@]}" \
+    "$here/bin/plugin_cuda_specialized_kernel_tests" --gtest_filter="$sanitize"
+fi
+if [[ $steps == *" bench "* && -n "$bench" ]]; then
   step bench "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 --benchmark_filter="$bench" \
     --benchmark_out="$out/bench.json" --benchmark_out_format=json
 fi
@@ -70,7 +76,7 @@ fi
 # states, this bundle's again after each, so that a drift of the machine shows
 kernel_alone='cuda_pipeline/1chunks/pinned/f(32|64)/talos_reduced/N65536/'
 for old in "$here"/bin/cuda_batch_bench-*; do
-  [[ -e "$old" ]] || continue
+  [[ $steps == *" revs "* && -e "$old" ]] || continue
   rev=${old##*-}
   step "bench-$rev" "$old" --benchmark_min_time=0.05 --benchmark_filter="$kernel_alone" \
     --benchmark_out="$out/bench-$rev.json" --benchmark_out_format=json
