@@ -102,27 +102,24 @@ TEST(CudaPlugin, OptionsAreChecked) {
   create(api(), iiwa().desc(), {{"states_per_block", "0"}}, &e);
   ASSERT_TRUE(e);
   EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  create(api(), iiwa().desc(), {{"threads_per_state", "512"}, {"states_per_block", "4"}}, &e);
-  ASSERT_TRUE(e);
-  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  EXPECT_NE(e->message.find("a block holds 1 to 1024 threads"), std::string::npos) << e->message;
-  create(api(), iiwa().desc(), {{"specialize", "yes"}}, &e);
-  ASSERT_TRUE(e);
-  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  EXPECT_NE(e->message.find("option 'specialize' is 'yes'"), std::string::npos) << e->message;
-  create(api(), iiwa().desc(), {{"block_compact", "true"}, {"specialize", "false"}}, &e);
-  ASSERT_TRUE(e);
-  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  EXPECT_NE(e->message.find("option 'block_compact' needs 'specialize'"), std::string::npos) << e->message;
-  create(api(), iiwa().desc(), {{"block_lane_inverse", "true"}, {"specialize", "false"}}, &e);
-  ASSERT_TRUE(e);
-  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  EXPECT_NE(e->message.find("option 'block_lane_inverse' needs 'specialize'"), std::string::npos) << e->message;
-  // M^-1 by a warp's lanes takes groups of whole warps
-  create(api(), iiwa().desc(), {{"block_lane_inverse", "true"}, {"threads_per_state", "48"}}, &e);
-  ASSERT_TRUE(e);
-  EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
-  EXPECT_NE(e->message.find("block_lane_inverse with 48 threads per state"), std::string::npos) << e->message;
+  // invalid combinations, each with what its message must say
+  struct Invalid {
+    std::vector<std::pair<std::string, std::string>> options;
+    const char* says;
+  };
+  for (const Invalid& bad : std::vector<Invalid>{
+           {{{"threads_per_state", "512"}, {"states_per_block", "4"}}, "a block holds 1 to 1024 threads"},
+           {{{"specialize", "yes"}}, "option 'specialize' is 'yes'"},
+           {{{"block_compact", "true"}, {"specialize", "false"}}, "option 'block_compact' needs 'specialize'"},
+           {{{"block_lane_inverse", "true"}, {"specialize", "false"}}, "option 'block_lane_inverse' needs 'specialize'"},
+           // M^-1 by a warp's lanes takes groups of whole warps
+           {{{"block_lane_inverse", "true"}, {"threads_per_state", "48"}}, "block_lane_inverse with 48 threads per state"},
+       }) {
+    create(api(), iiwa().desc(), bad.options, &e);
+    ASSERT_TRUE(e) << bad.says;
+    EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+    EXPECT_NE(e->message.find(bad.says), std::string::npos) << e->message;
+  }
   for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
                                      {"warp_kernel", "maybe"}, {"block_compact", "sometimes"},
                                      {"block_lane_inverse", "2"}}) {
