@@ -95,36 +95,23 @@ struct Batch {
 
 // One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#build]
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#compact]
   std::string unavailable;
   std::mutex mutex;  // benchmark threads create their own instances
 
-  // build: the options that take effect when the kernels are compiled (block_compact,
-  // block_lane_inverse, and with either the block shape, which sets their register cap): an
-  // instance of its own for each
-  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0,
-                                        const rbdgrad::cuda::KernelOptions& build = {}) {
+  // compact: an instance of its own whose block kernel compiled for the robot is the compact one
+  // (the option takes effect when the kernels are compiled)
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0, bool compact = false) {
     std::lock_guard<std::mutex> lock(mutex);
     if (!unavailable.empty()) return nullptr;
-    const bool capped = build.block_compact || build.block_lane_inverse;
-    std::string key = robot + "#" + std::to_string(copy);
-    if (build.block_compact) key += "#compact";
-    if (build.block_lane_inverse) key += "#lanes";
-    if (capped) {
-      // two appends: GCC 12 warns falsely (-Wrestrict) on "#" + std::to_string(...)
-      key += '#';
-      key += std::to_string(build.block_shape.threads_per_state);
-    }
-    auto& slot = instances[key];
+    auto& slot = instances[robot + "#" + std::to_string(copy) + (compact ? "#compact" : "")];
     if (!slot) {
       if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
         return nullptr;
       }
       rbdgrad::cuda::KernelOptions options;
-      options.block_compact = build.block_compact;
-      options.block_lane_inverse = build.block_lane_inverse;
-      if (capped) options.block_shape = build.block_shape;
+      options.block_compact = compact;
       (void)slot->set_kernel_options(options);
       // as the plugin does by default: the block and warp kernels compiled for the robot (the
       // "generic" entries turn them off)
@@ -222,13 +209,6 @@ Kernel compact(Kernel k) {
   k.options.block_compact = true;
   return k;
 }
-// `k` with M^-1 by a warp's lanes in the block kernel compiled for the robot (plugin option
-// block_lane_inverse)
-Kernel lanes(Kernel k) {
-  k.name += "-lanes";
-  k.options.block_lane_inverse = true;
-  return k;
-}
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
 Kernel warp_outputs(bool early) {
   Kernel k{early ? "early" : "late", {}};
@@ -261,7 +241,7 @@ template <class S>
 void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel,
               bool pinned_memory) {
   rbdgrad::cuda::CudaInstance* instance =
-      backend().instance(robot, state.thread_index(), kernel.options);
+      backend().instance(robot, state.thread_index(), kernel.options.block_compact);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
     return;
@@ -408,20 +388,14 @@ const bool registered = [] {
         if (n != 65536 || std::string(robot) != "talos_reduced") continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
-        // and the compact block kernel, four states an SM (one block of 256 threads a state), and
-        // M^-1 by a warp's lanes in either, the compact one also at 192 threads a state (four
-        // blocks an SM at 80 registers a thread where 256 threads get 64)
-        for (const Kernel& k : {compact(pipeline(chunks)), lanes(pipeline(chunks)), lanes(compact(pipeline(chunks))),
-                                wider(lanes(compact(pipeline(chunks))), 192)}) {
-          add<float>("cuda_pipeline", robot, n, k);
-          add<double>("cuda_pipeline", robot, n, k);
-        }
+        // and the compact block kernel, four states an SM (one block of 256 threads a state)
+        add<float>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
+        add<double>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
       }
-  // cuda_compact: talos_reduced's block kernel, compact (four states an SM) and with M^-1 by a
-  // warp's lanes, against the default, end to end at the anchors' sizes
+  // cuda_compact: talos_reduced's block kernel, compact (four states an SM) against the default,
+  // end to end at the anchors' sizes
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-    for (const Kernel& kernel : {default_kernel(), compact(default_kernel()), lanes(default_kernel()),
-                                 lanes(compact(default_kernel()))}) {
+    for (const Kernel& kernel : {default_kernel(), compact(default_kernel())}) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }

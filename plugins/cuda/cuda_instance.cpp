@@ -172,9 +172,6 @@ Status check_kernel_options(const KernelOptions& options) {
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
-  if (options.block_lane_inverse && options.block_shape.threads_per_state % kWarpLanes != 0)
-    return invalid_argument("block_lane_inverse with " + std::to_string(options.block_shape.threads_per_state) +
-                            " threads per state: M^-1 by a warp's lanes needs a multiple of 32");
   if (options.chunks.max_chunks < 1 || options.chunks.max_chunks > kMaxChunks)
     return invalid_argument("at most " + std::to_string(options.chunks.max_chunks) + " chunks: a batch goes in 1 to " +
                             std::to_string(kMaxChunks) + " chunks");
@@ -282,9 +279,8 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
                                                  : scalars == KernelScalars::kF64 ? specialized_f64_
                                                                                   : specialized_f64_for_f32_;
     k.reset();
-    const Status s =
-        SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact, kernel_.block_lane_inverse,
-                                     kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
+    const Status s = SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact,
+                                                  kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
@@ -292,11 +288,10 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
       continue;
     }
     parts += k->library().description();
-    const BlockBuild& build = k->build();
-    if (build.compact) parts += ", compact";
-    if (build.lane_inverse > 0)
-      parts += ", M^-1 by a warp's lanes (blocks of up to " + std::to_string(build.lane_inverse) + " joints)";
-    if (build.register_cap > 0) parts += ", at most " + std::to_string(build.register_cap) + " registers a thread";
+    if (k->build().compact)
+      parts += ", compact" + (k->build().register_cap > 0
+                                  ? ", at most " + std::to_string(k->build().register_cap) + " registers a thread"
+                                  : std::string());
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64
   specialized_warp_.reset();

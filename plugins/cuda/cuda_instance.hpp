@@ -119,11 +119,6 @@ struct KernelOptions {
   // more states an SM where shared memory limits them, not yet measured against the other
   // (docs/benchmarks/cuda.md), hence off. Read by specialize(), which builds the kernel.
   bool block_compact = false;
-  // the block kernel compiled for a robot of at most 32 joints takes M^-1 by a warp's lanes
-  // (device/lane_inverse.hpp) instead of exchange steps by the state's whole group: 20 syncs fewer
-  // a state for talos_reduced, not yet measured, hence off. Needs threads_per_state a multiple of
-  // 32 (or automatic). Read by specialize(), which builds the kernel.
-  bool block_lane_inverse = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;
@@ -137,7 +132,7 @@ struct KernelOptions {
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none; chunks.max_chunks outside
-/// 1 to kMaxChunks; block_lane_inverse with threads_per_state not a multiple of 32).
+/// 1 to kMaxChunks).
 Status check_kernel_options(const KernelOptions& options);
 
 /// States per chunk of a batch of `n` states whose kernel has `slots` resident thread slots (the

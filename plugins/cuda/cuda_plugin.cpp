@@ -87,13 +87,11 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).
     // block_compact: the block kernel compiled for the robot is the compact one, which fits more
     // states an SM (default false: not yet measured against the other; cuda_instance.hpp).
-    // block_lane_inverse: that kernel takes M^-1 by a warp's lanes on models of up to 32 joints
-    // (default false: not yet measured; cuda_instance.hpp).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
                                            "specialize", "kernel_cache_dir", "graphs", "warp_kernel",
-                                           "block_compact", "block_lane_inverse"});
+                                           "block_compact"});
         !s)
       return s;
     bool specialize = true;
@@ -106,11 +104,6 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_bool(options, "block_compact", block_compact); !s) return s;
     if (block_compact && !specialize)
       return invalid_argument("option 'block_compact' needs 'specialize' (the compact kernel is compiled for the robot)");
-    bool block_lane_inverse = false;
-    if (Status s = option_bool(options, "block_lane_inverse", block_lane_inverse); !s) return s;
-    if (block_lane_inverse && !specialize)
-      return invalid_argument(
-          "option 'block_lane_inverse' needs 'specialize' (M^-1 by a warp's lanes is compiled for the robot)");
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;
@@ -150,7 +143,6 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     kernel.graphs = graphs;
     kernel.warp_kernel = warp_kernel;
     kernel.block_compact = block_compact;
-    kernel.block_lane_inverse = block_lane_inverse;
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;

@@ -37,11 +37,9 @@ struct FlatModel {
     // matrix_row: the roots' blocks (contiguous index ranges) one after the other, each square
     int* matrix_row = ints.data() + ModelLayout::matrix_row(nv);
     matrix_scalars = 0;
-    largest_block = 0;
     for (std::size_t i = 0; i < n; ++i) {
       const int root = ints[3 * n + i], size = model.subtree_end[static_cast<std::size_t>(root)] - root;
       if (static_cast<int>(i) == root) matrix_scalars += size * size;
-      if (size > largest_block) largest_block = size;
       // the block starts at matrix_scalars - size * size; row i is row i - root of it
       matrix_row[i] = matrix_scalars - size * size + (static_cast<int>(i) - root) * size - root;
     }
@@ -73,7 +71,6 @@ struct FlatModel {
   int nv;
   int levels;              // the tree's depth
   int matrix_scalars;      // ModelView::matrix_scalars
-  int largest_block;       // joints of the largest root's block (the lane inverse's K)
   std::vector<S> scalars;  // (ModelLayout::scalars(nv))
   std::vector<int> ints;   // (ModelLayout::ints(nv))
   S gravity[3];

@@ -24,14 +24,11 @@ const char* kernel_scalars_name(KernelScalars scalars);  // "f64", "f32", "f64 f
 std::string block_stages_text(int stages);
 
 /// How the block kernel for a robot is built: compact (block_kernel_entry.hpp: the robot's scalar
-/// constants in device memory, the matrices packed by the roots' blocks), a cap on its registers a
-/// thread (register_cap.hpp; 0: none), and lane_inverse: 0, or M^-1 by a warp's lanes
-/// (device/lane_inverse.hpp) with the robot's largest block of lane_inverse joints (at most 32 in
-/// a model of at most 32; launched on groups of whole warps).
+/// constants in device memory, the matrices packed by the roots' blocks), and a cap on its
+/// registers a thread (register_cap.hpp; 0: none).
 struct BlockBuild {
   bool compact = false;
   int register_cap = 0;
-  int lane_inverse = 0;
 };
 
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for

@@ -10,9 +10,9 @@ namespace rbdgrad::cuda {
 
 namespace {
 
-// An f64 kernel's register cap on `device` for blocks of `shape` (large batches' shape where it is
-// automatic), from its shared memory (compact or not) for a batch from tau without a caller's M^-1
-Status f64_register_cap(const Model& model, bool compact, const BlockShape& shape, int device, int& cap) {
+// The compact f64 kernel's register cap on `device` for blocks of `shape` (large batches' shape
+// where it is automatic), from its shared memory for a batch from tau without a caller's M^-1
+Status compact_register_cap(const Model& model, const BlockShape& shape, int device, int& cap) {
   cudaDeviceProp prop{};
   if (Status s = cuda_status(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties"); !s) return s;
   SmLimits sm;
@@ -25,33 +25,23 @@ Status f64_register_cap(const Model& model, bool compact, const BlockShape& shap
   BatchPointers<double> batch;
   batch.tau_input = true;
   const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1);
-  const std::size_t shared = compact ? compact_block_shared_bytes(flat.host_view(), batch, large)
-                                     : block_shared_bytes<double>(model.nv, batch.tau_input, large);
-  cap = block_register_cap(sm, shared, large.threads_per_state * large.states_per_block);
+  cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large),
+                           large.threads_per_state * large.states_per_block);
   return Status::ok();
 }
 
 }  // namespace
 
-int lane_inverse_block(const Model& model) {
-  return model.nv <= kWarpLanes ? FlatModel<double>(model).largest_block : 0;
-}
-
 Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    bool lane_inverse, const BlockShape& shape, int device,
-                                    std::size_t max_shared_bytes, const std::string& cache_dir,
-                                    std::unique_ptr<SpecializedBlockKernel>& out) {
+                                    const BlockShape& shape, int device, std::size_t max_shared_bytes,
+                                    const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
   k->build_.compact = compact;
-  if (lane_inverse) k->build_.lane_inverse = lane_inverse_block(model);
-  // the builds that exist to fit more states an SM (compact), or that need more registers than the
-  // others (the lane inverse's columns: talos_reduced's f64 kernel takes 90 left to itself, which
-  // would leave two blocks an SM where shared memory allows three)
-  if ((compact || k->build_.lane_inverse > 0) && scalars != KernelScalars::kF32)
-    if (Status s = f64_register_cap(model, compact, shape, device, k->build_.register_cap); !s) return s;
+  if (compact && scalars != KernelScalars::kF32)
+    if (Status s = compact_register_cap(model, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
                                        max_shared_bytes, cache_dir, k->library_);
       !s)
@@ -73,7 +63,7 @@ cudaError_t SpecializedBlockKernel::launch(const ModelView<S>& model, const Batc
   const KernelScalars built_for = std::is_same_v<S, float>  ? KernelScalars::kF32
                                   : std::is_same_v<IO, float> ? KernelScalars::kF64ForF32
                                                               : KernelScalars::kF64;
-  if (scalars_ != built_for || !takes(shape)) return cudaErrorInvalidValue;
+  if (scalars_ != built_for) return cudaErrorInvalidValue;
   const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
   const dim3 blocks(static_cast<unsigned>((batch.n + per_block - 1) / per_block));
   const dim3 threads(static_cast<unsigned>(shape.threads_per_state), static_cast<unsigned>(shape.states_per_block));
@@ -90,7 +80,7 @@ bool SpecializedBlockKernel::launch_config(const ModelView<S>& model, const Batc
   const KernelScalars built_for = std::is_same_v<S, float>  ? KernelScalars::kF32
                                   : std::is_same_v<IO, float> ? KernelScalars::kF64ForF32
                                                               : KernelScalars::kF64;
-  if (scalars_ != built_for || !takes(shape)) return false;
+  if (scalars_ != built_for) return false;
   const auto per_block = static_cast<std::uint64_t>(shape.states_per_block);
   out.function = library_->kernel(0);
   out.grid = dim3(static_cast<unsigned>((batch.n + per_block - 1) / per_block));

@@ -17,39 +17,27 @@
 
 namespace rbdgrad::cuda {
 
-/// The K of M^-1 by a warp's lanes for `model` (BlockBuild::lane_inverse): its largest block of
-/// the tree, or 0 where it has more joints than a warp has lanes.
-int lane_inverse_block(const Model& model);
-
 class SpecializedBlockKernel {
  public:
   /// Builds the kernel of `model` in `scalars` with `stages` (block_stages: a scene's, or
   /// kPerBatch) for `device` (current), its shared memory allowed up to `max_shared_bytes`.
-  /// compact: the compact kernel (block_kernel_entry.hpp). lane_inverse: M^-1 by a warp's lanes
-  /// (device/lane_inverse.hpp) where the model has at most 32 joints (lane_inverse_block), else
-  /// ignored (build() says which); launched only with threads_per_state a multiple of 32. Either
-  /// caps the registers for blocks of `shape` (the instance's, resolved for a large batch) where
-  /// the kernel computes in f64 (register_cap.hpp; the f32 arithmetic's articulated-body pass
-  /// spills at 64 registers). `cache_dir` as compile_with_cache's dir. Errors: unavailable (no
-  /// NVRTC), internal (compiling or loading failed: the message says which).
-  static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, bool lane_inverse,
-                     const BlockShape& shape, int device, std::size_t max_shared_bytes, const std::string& cache_dir,
+  /// compact: the compact kernel (block_kernel_entry.hpp), its registers capped for blocks of
+  /// `shape` (the instance's, resolved for a large batch) where it computes in f64
+  /// (register_cap.hpp; the f32 arithmetic's articulated-body pass spills at 64 registers).
+  /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
+  /// or loading failed: the message says which).
+  static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, const BlockShape& shape,
+                     int device, std::size_t max_shared_bytes, const std::string& cache_dir,
                      std::unique_ptr<SpecializedBlockKernel>& out);
 
-  /// Whether it runs blocks of `shape`: any, except that M^-1 by a warp's lanes needs groups of
-  /// whole warps.
-  bool takes(const BlockShape& shape) const {
-    return build_.lane_inverse == 0 || shape.threads_per_state % kWarpLanes == 0;
-  }
-
-  /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for and a shape
-  /// it takes (else cudaErrorInvalidValue).
+  /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
+  /// cudaErrorInvalidValue).
   template <class S, class IO>
   cudaError_t launch(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      cudaStream_t stream) const;
 
   /// The launch launch() would make, for a CUDA Graph's kernel node; false when S and IO are not
-  /// those the kernel was built for or it does not take the shape.
+  /// those the kernel was built for.
   template <class S, class IO>
   bool launch_config(const ModelView<S>& model, const BatchPointers<IO>& batch, const BlockShape& shape,
                      KernelLaunch& out) const;

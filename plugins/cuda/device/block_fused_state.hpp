@@ -23,7 +23,6 @@
 #include "block_articulated_body.hpp"
 #include "block_stages.hpp"
 #include "fused_state.hpp"
-#include "lane_inverse.hpp"
 
 namespace rbdgrad::cuda {
 
@@ -185,10 +184,7 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // kStages: block_stages (a scene's fixed stages, which the batch follows) or kPerBatch.
 // kPacked: M, M^-1 computed here and d tau/d u packed by the roots' blocks (ModelView::matrix_row;
 // the compact kernel, block_kernel_entry.hpp), w's matrices sized so; else dense nv x nv.
-// kLaneInverse: 0, or K (a kernel compiled for a robot of at most 32 joints whose blocks have at
-// most K joints, on groups of whole warps): M^-1 by the group's first warp (lane_inverse.hpp).
-template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false,
-          int kLaneInverse = 0>
+template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
@@ -550,11 +546,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       if (t < n * n) inverse[t] = static_cast<S>(minv[t]);
       else fill_dtau_dqd(t - n * n);
     });
-    g.sync();
-  } else if constexpr (kLaneInverse > 0) {
-    // the steps by the first warp, d tau/d qd by the others (it reads neither M nor the pivots)
-    if (g.rank < kWarpLanes) lanes_exchange_inverse<kLaneInverse>(m, row_at, inverse, pivots, w.failed_pivot, g.rank);
-    g.for_each_after(kWarpLanes, dqd_fill_items, fill_dtau_dqd);
     g.sync();
   } else {
     // the snapshots: pivot row and column of each block's step, per joint (the blocks' index

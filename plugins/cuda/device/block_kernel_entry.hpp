@@ -39,10 +39,8 @@ __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 #endif
 
 // IO: the batch's scalar type, S or (an f32 batch computed in f64) float. kStages: a scene's
-// fixed stages (block_stages), or decided per batch. kCompact: above. kLaneInverse: M^-1 by a warp
-// (block_evaluate_state; the launch's groups are whole warps).
-template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch, bool kCompact = false,
-          int kLaneInverse = 0>
+// fixed stages (block_stages), or decided per batch. kCompact: above.
+template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch, bool kCompact = false>
 __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int nv = FixedSizes<Model>::nv > 0 ? FixedSizes<Model>::nv : global_model.nv;
@@ -90,8 +88,7 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
     if (g.rank == 0) g_block_pass_clocks[1] = clock64();
   }
 #endif
-  block_evaluate_state<S, Model, IO, kStages, kCompact, kLaneInverse>(model, w, batch, active ? k : batch.n - 1, active,
-                                                                      g);
+  block_evaluate_state<S, Model, IO, kStages, kCompact>(model, w, batch, active ? k : batch.n - 1, active, g);
 }
 #endif
 

@@ -54,21 +54,6 @@ struct ThreadGroup {
     for (int item = rank; item < count; item += size) f(item);
 #endif
   }
-  // for_each over the threads of rank `first` and after (the others are busy with something
-  // else in the same pass), or over all of them if there are none after `first`
-  template <class F>
-  RBDGRAD_HD void for_each_after(int first, int count, F&& f) const {
-#if !defined(__CUDA_ARCH__)
-    (void)first;
-    for_each(count, f);
-#else
-    if (size <= first) {
-      for_each(count, f);
-    } else if (rank >= first) {
-      for (int item = rank - first; item < count; item += size - first) f(item);
-    }
-#endif
-  }
 };
 
 // *at = max(*at, value) for the threads of a group that meet the same word (shared memory)

@@ -5,8 +5,7 @@
 // of every pass in reverse order and as the GPU's group of 256 threads: the results must not
 // change, which shows that no item of a pass depends on another (on the GPU, such a dependency
 // would be a race) and that the items a group's size shapes cover the same entries. The compact
-// kernel's packed matrices (block_kernel_entry.hpp) and M^-1 by a warp's lanes (lane_inverse.hpp)
-// give the same bits as the dense ones and the group's exchange steps.
+// kernel's packed matrices (block_kernel_entry.hpp) give the same bits as the dense ones.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -30,9 +29,8 @@ constexpr std::size_t kGuardScalars = 64;
 
 // Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
 // as the kernel compiled for it at load does. kPacked: the compact kernel's matrices, its working
-// set sized as the kernel sizes it (block_state_scalars). kLaneInverse: M^-1 by a warp's lanes.
-template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false,
-          int kLaneInverse = 0>
+// set sized as the kernel sizes it (block_state_scalars).
+template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false>
 std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
                                              bool tau_input, bool reverse) {
   const cuda::FlatModel<S> flat(model);
@@ -51,21 +49,11 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   if (reverse) g.size = 256;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
-    cuda::block_evaluate_state<S, Model, S, kStages, kPacked, kLaneInverse>(m, w, b, k, true, g);
+    cuda::block_evaluate_state<S, Model, S, kStages, kPacked>(m, w, b, k, true, g);
     for (std::size_t e = scalars; e < shared.size(); ++e)
       EXPECT_EQ(0, std::memcmp(&shared[e], &shared.back(), sizeof(S))) << "state " << k << " wrote past its working set";
   }
   return status;
-}
-
-// M^-1 by a warp's lanes with blocks of at most K joints, the matrices packed or dense, in reverse
-// order as 256 threads.
-template <class S, class Model, int K>
-std::vector<std::uint32_t> run_lanes_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
-                                             bool tau_input, bool packed) {
-  constexpr int kPerBatch = cuda::block_stages::kPerBatch;
-  return packed ? run_block_on_host<S, Model, kPerBatch, true, K>(model, a, c, tau_input, true)
-                : run_block_on_host<S, Model, kPerBatch, false, K>(model, a, c, tau_input, true);
 }
 
 template <class S>
@@ -101,21 +89,6 @@ void check_robot(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(a.out[f].data(), packed.out[f].data(), a.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " differs with the matrices packed";
-
-      // M^-1 by a warp's lanes (blocks of at most 32 joints: every robot here), dense and packed,
-      // in reverse order as 256 threads: the same bits
-      ASSERT_LE(model.nv, cuda::kWarpLanes) << where;
-      for (const bool pack : {false, true}) {
-        CudaBatch<S> lanes(states, model.nv, tau_input);
-        lanes.poison();
-        const std::vector<std::uint32_t> lanes_status =
-            run_lanes_on_host<S, cuda::ModelView<S>, 32>(model, lanes, c, tau_input, pack);
-        ASSERT_EQ(status, lanes_status) << where << ", M^-1 by lanes" << (pack ? ", packed" : "");
-        for (int f = 0; f < 8; ++f)
-          ASSERT_EQ(0, std::memcmp(a.out[f].data(), lanes.out[f].data(), a.out[f].size() * sizeof(S)))
-              << where << ": output " << Comparison::plugin_output_name(f) << " differs with M^-1 by lanes"
-              << (pack ? ", packed" : "");
-      }
     }
   }
 }
@@ -133,13 +106,11 @@ TEST(BlockStateOnHost, DividerIsExactForEveryIndexOfAPass) {
 // The robot-specific kernel (kernel_source.cpp) fixes nv and the tree's depth at compile time:
 // the same code, so the same results bit for bit (this test builds without FMA contraction, so
 // the constant folding cannot change a rounding either).
-// BLOCK: the robot's largest block of the tree, which the lane inverse compiled for it takes as K.
-template <class S, int NV, int LEVELS, int BLOCK>
+template <class S, int NV, int LEVELS>
 void check_fixed_sizes(const std::string& robot) {
   const Model model = robot_model(robot);
   ASSERT_EQ(model.nv, NV) << robot;
   ASSERT_EQ(model.max_depth(), LEVELS) << robot;
-  ASSERT_EQ(cuda::FlatModel<S>(model).largest_block, BLOCK) << robot;
   const std::vector<StateInputs> states = random_inputs(model, 8, 11);
   for (const bool tau_input : {true, false}) {
     for (const OutputCase& c : kBlockCases) {
@@ -162,29 +133,16 @@ void check_fixed_sizes(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), compact.out[f].data(), run_time.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed, packed";
-      // and M^-1 by lanes, K the robot's largest block, dense and packed
-      for (const bool pack : {false, true}) {
-        CudaBatch<S> lanes(states, model.nv, tau_input);
-        lanes.poison();
-        const auto s4 =
-            run_lanes_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>, BLOCK>(model, lanes, c, tau_input, pack);
-        ASSERT_EQ(s1, s4) << where << ", M^-1 by lanes";
-        for (int f = 0; f < 8; ++f)
-          ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), lanes.out[f].data(), run_time.out[f].size() * sizeof(S)))
-              << where << ": output " << Comparison::plugin_output_name(f)
-              << " differs with the sizes fixed, M^-1 by lanes" << (pack ? ", packed" : "");
-      }
     }
   }
 }
 
 TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
-  check_fixed_sizes<double, 7, 7, 7>("iiwa14");
-  check_fixed_sizes<float, 7, 7, 7>("iiwa14");
-  check_fixed_sizes<double, 12, 3, 3>("hyq");
-  check_fixed_sizes<float, 12, 3, 3>("hyq");
-  check_fixed_sizes<double, 32, 10, 20>("talos_reduced");
-  check_fixed_sizes<float, 32, 10, 20>("talos_reduced");
+  check_fixed_sizes<double, 7, 7>("iiwa14");
+  check_fixed_sizes<float, 7, 7>("iiwa14");
+  check_fixed_sizes<double, 12, 3>("hyq");
+  check_fixed_sizes<float, 12, 3>("hyq");
+  check_fixed_sizes<double, 32, 10>("talos_reduced");
 }
 
 // The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's
@@ -368,10 +326,6 @@ TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
     CudaBatch<double> a(states, model.nv, true);
     const OutputCase& c = kBlockCases[0];
     const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, true, false);
-    // and with M^-1 by a warp's lanes, packed, as 256 threads
-    CudaBatch<double> lanes(states, model.nv, true);
-    EXPECT_EQ(status, (run_lanes_on_host<double, cuda::ModelView<double>, 32>(model, lanes, c, true, true)))
-        << robot << ": M^-1 by lanes";
     const cuda::FlatModel<double> flat(model);
     std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
     const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);

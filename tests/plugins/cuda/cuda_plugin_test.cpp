@@ -111,9 +111,6 @@ TEST(CudaPlugin, OptionsAreChecked) {
            {{{"threads_per_state", "512"}, {"states_per_block", "4"}}, "a block holds 1 to 1024 threads"},
            {{{"specialize", "yes"}}, "option 'specialize' is 'yes'"},
            {{{"block_compact", "true"}, {"specialize", "false"}}, "option 'block_compact' needs 'specialize'"},
-           {{{"block_lane_inverse", "true"}, {"specialize", "false"}}, "option 'block_lane_inverse' needs 'specialize'"},
-           // M^-1 by a warp's lanes takes groups of whole warps
-           {{{"block_lane_inverse", "true"}, {"threads_per_state", "48"}}, "block_lane_inverse with 48 threads per state"},
        }) {
     create(api(), iiwa().desc(), bad.options, &e);
     ASSERT_TRUE(e) << bad.says;
@@ -121,8 +118,7 @@ TEST(CudaPlugin, OptionsAreChecked) {
     EXPECT_NE(e->message.find(bad.says), std::string::npos) << e->message;
   }
   for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
-                                     {"warp_kernel", "maybe"}, {"block_compact", "sometimes"},
-                                     {"block_lane_inverse", "2"}}) {
+                                     {"warp_kernel", "maybe"}, {"block_compact", "sometimes"}}) {
     create(api(), iiwa().desc(), {{name, value}}, &e);
     ASSERT_TRUE(e) << name << "=" << value;
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;

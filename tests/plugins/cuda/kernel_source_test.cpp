@@ -16,7 +16,6 @@
 #include "../../support/test_models.hpp"
 #include "kernel_cache.hpp"
 #include "kernel_source.hpp"
-#include "specialized_kernel.hpp"
 #include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 
@@ -92,23 +91,6 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).name, "block_kernel_iiwa14_f64.cu");
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6, {true, 0}).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6, true>");
-  // M^-1 by a warp's lanes: the robot's largest block after compact, which is then named
-  const cuda::NvrtcProgram lanes =
-      cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {false, 0, 7});
-  EXPECT_EQ(lanes.name_expressions.at(0), "rbdgrad::cuda::block_fused_kernel<double, "
-                                          "rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, double, -1, false, 7>");
-  EXPECT_THAT(lanes.source, HasSubstr("M^-1 by a warp's lanes (blocks of at most 7 joints)"));
-  EXPECT_EQ(lanes.name, "block_kernel_iiwa14_f64_lane_inverse.cu");
-  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF32, 90, 6, {true, 0, 7}).name_expressions.at(0),
-            "rbdgrad::cuda::block_fused_kernel<float, rbdgrad::cuda::FixedSizeModelView<float, 7, 7>, float, 6, true, "
-            "7>");
-  EXPECT_THAT(compact.source, ::testing::Not(HasSubstr("lanes")));
-  // K is the robot's largest block of the tree, where its joints fit a warp's lanes
-  EXPECT_EQ(cuda::lane_inverse_block(model), 7);
-  EXPECT_EQ(cuda::lane_inverse_block(load_embedded("talos_reduced")), 20);
-  EXPECT_EQ(cuda::lane_inverse_block(load_embedded("hyq")), 3);
-  EXPECT_EQ(cuda::lane_inverse_block(random_model(5, 32, TreeShape::kChain)), 32);
-  EXPECT_EQ(cuda::lane_inverse_block(random_model(5, 33, TreeShape::kWide)), 0);
   EXPECT_THAT(f64.options, ::testing::Not(::testing::Contains(::testing::StartsWith("--maxrregcount"))));
   bool entry = false;
   for (const cuda::EmbeddedHeader& h : f64.headers) entry |= std::string(h.name) == "block_kernel_entry.hpp";
@@ -185,7 +167,7 @@ TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
 
 // ptxas's report (--ptxas-options=--verbose, in NVRTC's log) of a compiled kernel: -1 where absent
 struct PtxasReport {
-  int registers = -1, spill_stores = -1, spill_loads = -1, stack_frame = -1;
+  int registers = -1, spill_stores = -1, spill_loads = -1;
 };
 PtxasReport ptxas_report(const std::string& log) {
   PtxasReport r;
@@ -200,7 +182,6 @@ PtxasReport ptxas_report(const std::string& log) {
   };
   r.spill_stores = number_before("bytes spill stores");
   r.spill_loads = number_before("bytes spill loads");
-  r.stack_frame = number_before("bytes stack frame");
   const std::size_t used = log.find("Used ");
   if (used != std::string::npos) r.registers = std::stoi(log.substr(used + 5));
   return r;
@@ -234,59 +215,6 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
       cuda::block_kernel_program(model, cuda::KernelScalars::kF32, 90, cuda::block_stages::kPerBatch, {true, 0}), out);
   ASSERT_TRUE(s.is_ok()) << s.message();
   EXPECT_EQ(out.kernel_symbols.size(), 1u);
-}
-
-// M^-1 by a warp's lanes (device/lane_inverse.hpp) in talos_reduced's kernels, whose largest block
-// has 20 joints: each compiles within its register cap and keeps its columns in registers. A
-// column in local memory would show in ptxas's report as a stack frame 160 bytes (20 doubles)
-// larger than the same build's without the lanes, or as that many bytes of spill stores; near a
-// cap ptxas may set a few values aside (CUDA 13.0: the compact f64 build 4 bytes at 80 registers,
-// none at 72; 28 bytes at 64, with 144 of loads), which these builds may do. The
-// caps are register_cap.hpp's on an H200: 80 for the f64 builds at 256 threads a state (three
-// blocks an SM, as the dense kernel's shared memory allows) and for the compact ones at 192 (four
-// blocks of six warps), 64 for the compact ones at 256 (four blocks of eight warps). Left to itself
-// the f64 build takes 90 registers (two blocks an SM).
-TEST(KernelSource, LaneInverseTalosKernelsKeepTheirColumnsInRegisters) {
-  SKIP_WITHOUT_NVRTC();
-  const Model model = load_embedded("talos_reduced");
-  struct Case {
-    cuda::KernelScalars scalars;
-    bool compact;
-    int cap;
-  };
-  for (const Case& c : {Case{cuda::KernelScalars::kF64, false, 80}, Case{cuda::KernelScalars::kF64ForF32, false, 80},
-                        Case{cuda::KernelScalars::kF64, true, 80}, Case{cuda::KernelScalars::kF64, true, 64},
-                        Case{cuda::KernelScalars::kF64ForF32, true, 64}, Case{cuda::KernelScalars::kF32, false, 0}}) {
-    cuda::NvrtcProgram p =
-        cuda::block_kernel_program(model, c.scalars, 90, cuda::block_stages::kPerBatch, {c.compact, c.cap, 20});
-    p.options.push_back("--ptxas-options=--verbose");
-    const std::string what = std::string(cuda::kernel_scalars_name(c.scalars)) + (c.compact ? " compact" : "") +
-                             ", cap " + std::to_string(c.cap);
-    cuda::NvrtcOutput out;
-    const Status s = cuda::nvrtc_compile(p, out);
-    ASSERT_TRUE(s.is_ok()) << what << ": " << s.message();
-    ASSERT_EQ(out.kernel_symbols.size(), 1u) << what;
-    const PtxasReport r = ptxas_report(out.log);
-    std::printf("talos_reduced, M^-1 by lanes, %s: %d registers, %d bytes spill stores, %d bytes spill loads, "
-                "cubin %zu bytes\n",
-                what.c_str(), r.registers, r.spill_stores, r.spill_loads, out.cubin.size());
-    EXPECT_GT(r.registers, 0) << out.log;
-    if (c.cap > 0) {
-      EXPECT_LE(r.registers, c.cap) << what << ": " << out.log;
-    }
-    EXPECT_GE(r.spill_stores, 0) << what << ": " << out.log;
-    EXPECT_LT(r.spill_stores, 20 * 8) << what << ": " << out.log;
-    // the same build with the group's exchange steps
-    cuda::NvrtcProgram steps =
-        cuda::block_kernel_program(model, c.scalars, 90, cuda::block_stages::kPerBatch, {c.compact, c.cap, 0});
-    steps.options.push_back("--ptxas-options=--verbose");
-    cuda::NvrtcOutput steps_out;
-    ASSERT_TRUE(cuda::nvrtc_compile(steps, steps_out).is_ok()) << what;
-    const PtxasReport by_steps = ptxas_report(steps_out.log);
-    std::printf("  stack frame %d bytes (%d with the group's steps)\n", r.stack_frame, by_steps.stack_frame);
-    ASSERT_GE(by_steps.stack_frame, 0) << steps_out.log;
-    EXPECT_LT(r.stack_frame, by_steps.stack_frame + 20 * 8) << what << ": " << out.log;
-  }
 }
 
 // A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.
@@ -340,14 +268,6 @@ TEST(KernelCache, KeysDifferWithEveryInput) {
   };
   EXPECT_NE(key, compact_key(0));
   EXPECT_NE(compact_key(0), compact_key(64));
-  const auto lanes_key = [&](bool compact, int cap) {
-    return cuda::kernel_cache_key(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90,
-                                                             cuda::block_stages::kPerBatch, {compact, cap, 7}),
-                                  "13.0");
-  };
-  EXPECT_NE(key, lanes_key(false, 0));
-  EXPECT_NE(compact_key(0), lanes_key(true, 0));
-  EXPECT_NE(lanes_key(false, 0), lanes_key(false, 80));
   cuda::NvrtcProgram other_header = p;
   other_header.headers.pop_back();
   EXPECT_NE(key, cuda::kernel_cache_key(other_header, "13.0"));

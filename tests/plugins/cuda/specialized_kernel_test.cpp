@@ -178,33 +178,6 @@ TEST(CudaRobotSpecificKernel, CompactKernelMatchesTheGenericOne) {
   }
 }
 
-// M^-1 by a warp's lanes (option block_lane_inverse, device/lane_inverse.hpp) in the block kernel
-// compiled for the robot, dense and compact, against the generic kernel: a humanoid (blocks of 6,
-// 6 and 20 joints), a quadruped (four of 3), a chain (one of 7); with M^-1 computed and brought by
-// the caller (which skips the inversion).
-TEST(CudaRobotSpecificKernel, LaneInverseKernelMatchesTheGenericOne) {
-  for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
-    for (const bool compact : {false, true}) {
-      const Model model = testing::load_embedded(name);
-      std::unique_ptr<CudaInstance> instance;
-      if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
-      KernelOptions options;
-      options.block_lane_inverse = true;
-      options.block_compact = compact;
-      ASSERT_TRUE(instance->set_kernel_options(options));
-      if (Status s = instance->specialize(""); !s) {
-        if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
-        FAIL() << name << ": " << s.message();
-      }
-      const std::string blocks = std::string(name) == "talos_reduced" ? "20" : std::string(name) == "hyq" ? "3" : "7";
-      EXPECT_THAT(instance->kernel_description(), HasSubstr(", M^-1 by a warp's lanes (blocks of up to " + blocks))
-          << name;
-      std::printf("%s: %s\n", name, instance->kernel_description().c_str());
-      compare_block_kernels(*instance, name, model.nv);
-    }
-  }
-}
-
 // Instances of one model share one compilation (the process's memory cache).
 TEST(CudaRobotSpecificKernel, SecondInstanceOfAModelReusesTheCompilation) {
   const Model model = testing::load_embedded("panda");
