@@ -95,16 +95,16 @@ struct Batch {
 
 // One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#compact]
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#dense]
   std::string unavailable;
   std::mutex mutex;  // benchmark threads create their own instances
 
-  // compact: an instance of its own whose block kernel compiled for the robot is the compact one
-  // (the option takes effect when the kernels are compiled)
-  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0, bool compact = false) {
+  // compact: false for an instance of its own whose block kernel compiled for the robot is the
+  // dense one (the option takes effect when the kernels are compiled)
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0, bool compact = true) {
     std::lock_guard<std::mutex> lock(mutex);
     if (!unavailable.empty()) return nullptr;
-    auto& slot = instances[robot + "#" + std::to_string(copy) + (compact ? "#compact" : "")];
+    auto& slot = instances[robot + "#" + std::to_string(copy) + (compact ? "" : "#dense")];
     if (!slot) {
       if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
@@ -203,10 +203,11 @@ Kernel wider(Kernel k, int threads) {
   k.options.block_shape = {threads, 1};
   return k;
 }
-// `k` with the compact block kernel (plugin option block_compact: more states an SM)
-Kernel compact(Kernel k) {
-  k.name += "-compact";
-  k.options.block_compact = true;
+// `k` with the dense block kernel (plugin option block_compact: false; the compact one, the
+// default, fits more states an SM)
+Kernel dense(Kernel k) {
+  k.name += "-dense";
+  k.options.block_compact = false;
   return k;
 }
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
@@ -388,14 +389,15 @@ const bool registered = [] {
         if (n != 65536 || std::string(robot) != "talos_reduced") continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
-        // and the compact block kernel, four states an SM (one block of 256 threads a state)
-        add<float>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
-        add<double>("cuda_pipeline", robot, n, compact(pipeline(chunks)));
+        // and the dense block kernel, three states an SM where the compact one fits four (one
+        // block of 256 threads a state)
+        add<float>("cuda_pipeline", robot, n, dense(pipeline(chunks)));
+        add<double>("cuda_pipeline", robot, n, dense(pipeline(chunks)));
       }
-  // cuda_compact: talos_reduced's block kernel, compact (four states an SM) against the default,
-  // end to end at the anchors' sizes
+  // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
+  // the dense one, end to end at the anchors' sizes
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-    for (const Kernel& kernel : {default_kernel(), compact(default_kernel())}) {
+    for (const Kernel& kernel : {default_kernel(), dense(default_kernel())}) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }

@@ -86,7 +86,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // kernel launch without copies goes as a CUDA Graph (default true). warp_kernel: gradient
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).
     // block_compact: the block kernel compiled for the robot is the compact one, which fits more
-    // states an SM (default false: not yet measured against the other; cuda_instance.hpp).
+    // states an SM (default true; false: the dense one; cuda_instance.hpp).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
@@ -100,9 +100,10 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_bool(options, "graphs", graphs); !s) return s;
     bool warp_kernel = true;
     if (Status s = option_bool(options, "warp_kernel", warp_kernel); !s) return s;
-    bool block_compact = false;
+    bool block_compact = true;
     if (Status s = option_bool(options, "block_compact", block_compact); !s) return s;
-    if (block_compact && !specialize)
+    // asked for explicitly only: without specialize the generic kernel runs, and the default is moot
+    if (block_compact && !specialize && find_option(options, "block_compact") != nullptr)
       return invalid_argument("option 'block_compact' needs 'specialize' (the compact kernel is compiled for the robot)");
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();

@@ -124,6 +124,16 @@ TEST(CudaPlugin, OptionsAreChecked) {
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
     EXPECT_NE(e->message.find("option '" + std::string(name) + "'"), std::string::npos) << e->message;
   }
+  // the compact kernel is the default, which the generic kernels (specialize off) leave aside: no
+  // error of the options, whether or not a GPU is there to create the instance
+  for (const auto& options : {std::vector<std::pair<std::string, std::string>>{{"specialize", "false"}},
+                              {{"specialize", "false"}, {"block_compact", "false"}}}) {
+    e.reset();
+    create(api(), iiwa().desc(), options, &e);
+    if (e) {
+      EXPECT_NE(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
+    }
+  }
   SKIP_WITHOUT_GPU();
   // a small workspace still computes, with fewer resident thread slots
   EXPECT_NE(create(api(), iiwa().desc(), {{"workspace_mib", "1"}}, &e), nullptr) << (e ? e->message : "");

@@ -119,6 +119,8 @@ TEST(CudaRobotSpecificKernel, MatchesTheGenericKernelOnEveryRobot) {
       FAIL() << name << ": " << s.message();
     }
     EXPECT_THAT(instance->kernel_description(), HasSubstr("kernel compiled for this robot (f64: ")) << name;
+    // the compact block kernel by default (KernelOptions::block_compact)
+    EXPECT_THAT(instance->kernel_description(), HasSubstr(", compact")) << name;
     std::printf("%s: %s\n", std::string(name).c_str(), instance->kernel_description().c_str());
     compare_kernels<double>(*instance, std::string(name), model.nv);
     compare_kernels<float>(*instance, std::string(name), model.nv);
@@ -156,25 +158,29 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
   }
 }
 
-// The compact block kernel (option block_compact: the robot's scalar constants in device memory,
-// the matrices packed by the roots' blocks, its registers capped) against the generic one: a
-// humanoid whose legs and torso pack, a quadruped whose legs do, a chain that packs nothing; with
-// M^-1 computed and brought by the caller.
-TEST(CudaRobotSpecificKernel, CompactKernelMatchesTheGenericOne) {
+// The block kernel compiled for the robot in both builds of option block_compact against the
+// generic one: compact (the default: the robot's scalar constants in device memory, the matrices
+// packed by the roots' blocks, its registers capped) and dense; a humanoid whose legs and torso
+// pack, a quadruped whose legs do, a chain that packs nothing; with M^-1 computed and brought by
+// the caller.
+TEST(CudaRobotSpecificKernel, CompactAndDenseKernelsMatchTheGenericOne) {
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
-    const Model model = testing::load_embedded(name);
-    std::unique_ptr<CudaInstance> instance;
-    if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
-    KernelOptions options;
-    options.block_compact = true;
-    ASSERT_TRUE(instance->set_kernel_options(options));
-    if (Status s = instance->specialize(""); !s) {
-      if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
-      FAIL() << name << ": " << s.message();
+    for (const bool compact : {true, false}) {
+      const Model model = testing::load_embedded(name);
+      std::unique_ptr<CudaInstance> instance;
+      if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
+      KernelOptions options;
+      options.block_compact = compact;
+      ASSERT_TRUE(instance->set_kernel_options(options));
+      if (Status s = instance->specialize(""); !s) {
+        if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
+        FAIL() << name << ": " << s.message();
+      }
+      EXPECT_EQ(instance->kernel_description().find(", compact") != std::string::npos, compact)
+          << name << ": " << instance->kernel_description();
+      std::printf("%s: %s\n", name, instance->kernel_description().c_str());
+      compare_block_kernels(*instance, name, model.nv);
     }
-    EXPECT_THAT(instance->kernel_description(), HasSubstr(", compact")) << name;
-    std::printf("%s: %s\n", name, instance->kernel_description().c_str());
-    compare_block_kernels(*instance, name, model.nv);
   }
 }
 
