@@ -95,23 +95,33 @@ struct Batch {
 
 // One instance per robot, created once for all cases; the reason when none can be.
 struct Backend {
-  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#dense]
+  std::map<std::string, std::unique_ptr<rbdgrad::cuda::CudaInstance>> instances;  // robot#copy[#build]
   std::string unavailable;
   std::mutex mutex;  // benchmark threads create their own instances
 
-  // compact: false for an instance of its own whose block kernel compiled for the robot is the
-  // dense one (the option takes effect when the kernels are compiled)
-  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0, bool compact = true) {
+  // build: the options that take effect when the kernels are compiled (block_compact, block_lean,
+  // and the block shape, which sets the compact kernel's register cap): an instance of its own for
+  // each
+  rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0,
+                                        const rbdgrad::cuda::KernelOptions& build = {}) {
     std::lock_guard<std::mutex> lock(mutex);
     if (!unavailable.empty()) return nullptr;
-    auto& slot = instances[robot + "#" + std::to_string(copy) + (compact ? "" : "#dense")];
+    std::string key = robot + "#" + std::to_string(copy);
+    if (!build.block_compact) key += "#dense";
+    if (build.block_lean) key += "#lean";
+    // two appends: GCC 12 warns falsely (-Wrestrict) on "#" + std::to_string(...)
+    key += '#';
+    key += std::to_string(build.block_shape.threads_per_state);
+    auto& slot = instances[key];
     if (!slot) {
       if (Status s = rbdgrad::cuda::CudaInstance::create(load(robot), 0, slot); !s) {
         unavailable = s.to_string();
         return nullptr;
       }
       rbdgrad::cuda::KernelOptions options;
-      options.block_compact = compact;
+      options.block_compact = build.block_compact;
+      options.block_lean = build.block_lean;
+      options.block_shape = build.block_shape;
       (void)slot->set_kernel_options(options);
       // as the plugin does by default: the block and warp kernels compiled for the robot (the
       // "generic" entries turn them off)
@@ -210,6 +220,12 @@ Kernel dense(Kernel k) {
   k.options.block_compact = false;
   return k;
 }
+// `k` with the compact kernel's lean working set (plugin option block_lean)
+Kernel lean(Kernel k) {
+  k.name += "-lean";
+  k.options.block_lean = true;
+  return k;
+}
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
 Kernel warp_outputs(bool early) {
   Kernel k{early ? "early" : "late", {}};
@@ -242,7 +258,7 @@ template <class S>
 void cuda_e2e(benchmark::State& state, std::string robot, std::size_t n, std::uint32_t precision, Kernel kernel,
               bool pinned_memory) {
   rbdgrad::cuda::CudaInstance* instance =
-      backend().instance(robot, state.thread_index(), kernel.options.block_compact);
+      backend().instance(robot, state.thread_index(), kernel.options);
   if (instance == nullptr) {
     state.SkipWithError(("CUDA backend unavailable: " + backend().unavailable).c_str());
     return;
@@ -390,14 +406,20 @@ const bool registered = [] {
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         // and the dense block kernel, three states an SM where the compact one fits four (one
-        // block of 256 threads a state)
-        add<float>("cuda_pipeline", robot, n, dense(pipeline(chunks)));
-        add<double>("cuda_pipeline", robot, n, dense(pipeline(chunks)));
+        // block of 256 threads a state), the compact one at 192 threads a state, and its lean
+        // working set at 256 and at 192 (five states an SM)
+        for (const Kernel& k : {dense(pipeline(chunks)), wider(pipeline(chunks), 192), lean(pipeline(chunks)),
+                                wider(lean(pipeline(chunks)), 192)}) {
+          add<float>("cuda_pipeline", robot, n, k);
+          add<double>("cuda_pipeline", robot, n, k);
+        }
       }
   // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
-  // the dense one, end to end at the anchors' sizes
+  // the dense one and the lean working set (at 192 threads a state for large batches, five states
+  // an SM), end to end at the anchors' sizes
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-    for (const Kernel& kernel : {default_kernel(), dense(default_kernel())}) {
+    for (const Kernel& kernel : {default_kernel(), dense(default_kernel()), lean(default_kernel()),
+                                 wider(lean(default_kernel()), 192)}) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }

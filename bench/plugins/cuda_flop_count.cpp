@@ -62,8 +62,8 @@ struct SinglePrecision<counting::Counted<true>> : std::true_type {};
 namespace {
 
 // Arithmetic of one state of `robot` (averaged over a few random states, which differ only in
-// the finiteness checks).
-template <bool kSingle>
+// the finiteness checks); kLean: the compact kernel with its lean working set (packed matrices).
+template <bool kSingle, bool kLean = false>
 counting::Counts count_state(const rbdgrad::Model& model) {
   using S = counting::Counted<kSingle>;
   const rbdgrad::cuda::FlatModel<S> flat(model);
@@ -86,12 +86,15 @@ counting::Counts count_state(const rbdgrad::Model& model) {
   b.out[rbdgrad::cuda::output_index(rbdgrad::cuda::kOutputDqddDqd)] = dqd.data();
   b.status = status.data();
   const bool with_aba = rbdgrad::cuda::block_uses_aba<S>(true);
-  std::vector<S> shared(rbdgrad::cuda::BlockWorkspace<S>::scalars(model.nv, with_aba));
-  const rbdgrad::cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba);
+  const rbdgrad::cuda::BlockMatrices matrices =
+      rbdgrad::cuda::block_matrices(model.nv, flat.matrix_scalars, kLean, false);
+  std::vector<S> shared(rbdgrad::cuda::BlockWorkspace<S>::scalars(model.nv, with_aba, matrices, kLean));
+  const rbdgrad::cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba, matrices, kLean);
   counting::counts = {};
   for (std::size_t k = 0; k < kStates; ++k) {
     rbdgrad::cuda::block_load_inputs(flat.host_view().nv, w, b, k, rbdgrad::cuda::ThreadGroup{});
-    rbdgrad::cuda::block_evaluate_state(flat.host_view(), w, b, k, true, rbdgrad::cuda::ThreadGroup{});
+    rbdgrad::cuda::block_evaluate_state<S, rbdgrad::cuda::ModelView<S>, S, rbdgrad::cuda::block_stages::kPerBatch,
+                                        kLean, kLean>(flat.host_view(), w, b, k, true, rbdgrad::cuda::ThreadGroup{});
   }
   for (std::uint32_t s : status)
     if (s != 0) std::fprintf(stderr, "warning: a state failed (status %u)\n", s);
@@ -116,15 +119,19 @@ int main(int argc, char** argv) {
   for (const char* robot : {"iiwa14", "talos_reduced"}) {
     rbdgrad::Model model;
     if (!rbdgrad::load_urdf_string(std::string(rbdgrad::embedded_robot_urdf(robot)), robot, model).is_ok()) return 1;
-    for (const bool single : {true, false}) {
-      const counting::Counts c = single ? count_state<true>(model) : count_state<false>(model);
+    // the default build, then the lean working set (option block_lean)
+    for (const int build : {0, 1, 2, 3}) {
+      const bool single = build % 2 == 0, lean = build >= 2;
+      const counting::Counts c = lean ? (single ? count_state<true, true>(model) : count_state<false, true>(model))
+                                      : (single ? count_state<true>(model) : count_state<false>(model));
       const double scalar = single ? 4 : 8;
       // device memory per state: q, qd, tau in; d qdd/d q, d qdd/d qd and the status out (the
       // working set stays in shared memory, the robot's constants in cache)
       const double bytes = (3.0 * model.nv + 2.0 * model.nv * model.nv) * scalar + 4;
       const double compute_us = 1e6 * states * static_cast<double>(c.flops()) / (single ? peak_f32 : peak_f64);
       const double memory_us = 1e6 * states * bytes / bandwidth;
-      std::printf("| %s | %s | %llu | %llu | %llu | %llu | %llu | %.0f | %.1f | %s |\n", robot, single ? "f32" : "f64",
+      std::printf("| %s%s | %s | %llu | %llu | %llu | %llu | %llu | %.0f | %.1f | %s |\n", robot, lean ? " (lean)" : "",
+                  single ? "f32" : "f64",
                   static_cast<unsigned long long>(c.add), static_cast<unsigned long long>(c.mul),
                   static_cast<unsigned long long>(c.div), static_cast<unsigned long long>(c.transcendental),
                   static_cast<unsigned long long>(c.flops()), bytes, compute_us > memory_us ? compute_us : memory_us,

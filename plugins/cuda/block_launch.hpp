@@ -41,12 +41,12 @@ std::size_t block_shared_bytes(int nv, bool tau_input, const BlockShape& shape) 
                                         static_cast<std::size_t>(shape.states_per_block);
 }
 /// The same for the compact kernel (block_kernel_entry.hpp), whose working set depends on whether
-/// the batch brings M^-1; at most the above.
+/// the batch brings M^-1, and (lean) on its layout; at most the above.
 template <class S, class IO>
 std::size_t compact_block_shared_bytes(const ModelView<S>& model, const BatchPointers<IO>& batch,
-                                       const BlockShape& shape) {
+                                       const BlockShape& shape, bool lean = false) {
   return block_model_bytes<S>(model.nv, true) +
-         block_state_scalars(model, batch.tau_input, batch.minv != nullptr, true) * sizeof(S) *
+         block_state_scalars(model, batch.tau_input, batch.minv != nullptr, true, lean) * sizeof(S) *
              static_cast<std::size_t>(shape.states_per_block);
 }
 

@@ -120,6 +120,11 @@ struct KernelOptions {
   // three, its kernel 29% faster at 65536 states and no slower end to end at any size measured,
   // docs/benchmarks/cuda.md). Read by specialize(), which builds the kernel.
   bool block_compact = true;
+  // the compact kernel's lean working set (device/block_workspace.hpp): B and Bc as their symmetric
+  // parts and momenta, each array placed by its lifetime (talos_reduced: 42 KiB a state where the
+  // compact kernel takes 55, five states an SM at 192 threads a state); not yet measured on a GPU,
+  // hence off. Needs block_compact. Read by specialize(), which builds the kernel.
+  bool block_lean = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;
@@ -133,7 +138,7 @@ struct KernelOptions {
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none; chunks.max_chunks outside
-/// 1 to kMaxChunks).
+/// 1 to kMaxChunks; block_lean without block_compact).
 Status check_kernel_options(const KernelOptions& options);
 
 /// States per chunk of a batch of `n` states whose kernel has `slots` resident thread slots (the

@@ -86,12 +86,13 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // kernel launch without copies goes as a CUDA Graph (default true). warp_kernel: gradient
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).
     // block_compact: the block kernel compiled for the robot is the compact one, which fits more
-    // states an SM (default true; false: the dense one; cuda_instance.hpp).
+    // states an SM (default true; false: the dense one; cuda_instance.hpp). block_lean: that kernel
+    // with its lean working set (default false: not yet measured; needs block_compact).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
                                            "specialize", "kernel_cache_dir", "graphs", "warp_kernel",
-                                           "block_compact"});
+                                           "block_compact", "block_lean"});
         !s)
       return s;
     bool specialize = true;
@@ -105,6 +106,11 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // asked for explicitly only: without specialize the generic kernel runs, and the default is moot
     if (block_compact && !specialize && find_option(options, "block_compact") != nullptr)
       return invalid_argument("option 'block_compact' needs 'specialize' (the compact kernel is compiled for the robot)");
+    bool block_lean = false;
+    if (Status s = option_bool(options, "block_lean", block_lean); !s) return s;
+    if (block_lean && !specialize)
+      return invalid_argument(
+          "option 'block_lean' needs 'specialize' (the lean working set is compiled for the robot)");
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;
@@ -144,6 +150,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     kernel.graphs = graphs;
     kernel.warp_kernel = warp_kernel;
     kernel.block_compact = block_compact;
+    kernel.block_lean = block_lean;
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;

@@ -24,11 +24,13 @@ const char* kernel_scalars_name(KernelScalars scalars);  // "f64", "f32", "f64 f
 std::string block_stages_text(int stages);
 
 /// How the block kernel for a robot is built: compact (block_kernel_entry.hpp: the robot's scalar
-/// constants in device memory, the matrices packed by the roots' blocks), and a cap on its
-/// registers a thread (register_cap.hpp; 0: none).
+/// constants in device memory, the matrices packed by the roots' blocks), a cap on its registers a
+/// thread (register_cap.hpp; 0: none), and lean: the compact kernel's lean working set
+/// (block_workspace.hpp; ignored without compact).
 struct BlockBuild {
   bool compact = false;
   int register_cap = 0;
+  bool lean = false;
 };
 
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for

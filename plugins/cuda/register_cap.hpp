@@ -39,15 +39,25 @@ inline int blocks_by_shared_memory(const SmLimits& sm, std::size_t block_shared_
   return std::min({by_shared, sm.max_threads / threads, sm.max_blocks});
 }
 
+/// The registers a thread that let `blocks` blocks of `threads` onto an SM, rounded down to the
+/// allocation unit.
+inline int registers_for_blocks(const SmLimits& sm, int blocks, int threads) {
+  const int warps_per_block = (threads + 31) / 32;
+  const int warps_per_partition = (blocks * warps_per_block + kSmPartitions - 1) / kSmPartitions;
+  return sm.registers / kSmPartitions / (warps_per_partition * 32) / kRegisterGranule * kRegisterGranule;
+}
+
 /// The cap for blocks of `block_shared_bytes` and `threads`: the registers a thread that let as
-/// many blocks onto an SM as shared memory does, rounded down to the allocation unit; 0 (no cap)
-/// where that is fewer than kMinRegisterCap or no cap at all (at least kMaxRegisters).
+/// many blocks onto an SM as shared memory does; where that is fewer than kMinRegisterCap, those
+/// that let one block fewer (a working set just under a block's share of shared memory, such as
+/// talos_reduced's at 256 threads a state: five by shared memory, four at 64 registers, where
+/// left uncapped its registers would allow three); 0 (no cap) where neither is at least
+/// kMinRegisterCap, or where no cap is needed (at least kMaxRegisters).
 inline int block_register_cap(const SmLimits& sm, std::size_t block_shared_bytes, int threads) {
   const int blocks = blocks_by_shared_memory(sm, block_shared_bytes, threads);
   if (blocks <= 0) return 0;
-  const int warps_per_block = (threads + 31) / 32;
-  const int warps_per_partition = (blocks * warps_per_block + kSmPartitions - 1) / kSmPartitions;
-  const int cap = sm.registers / kSmPartitions / (warps_per_partition * 32) / kRegisterGranule * kRegisterGranule;
+  int cap = registers_for_blocks(sm, blocks, threads);
+  if (cap < kMinRegisterCap && blocks > 1) cap = registers_for_blocks(sm, blocks - 1, threads);
   return cap < kMinRegisterCap || cap >= kMaxRegisters ? 0 : cap;
 }
 

@@ -11,8 +11,9 @@ namespace rbdgrad::cuda {
 namespace {
 
 // The compact f64 kernel's register cap on `device` for blocks of `shape` (large batches' shape
-// where it is automatic), from its shared memory for a batch from tau without a caller's M^-1
-Status compact_register_cap(const Model& model, const BlockShape& shape, int device, int& cap) {
+// where it is automatic), from its shared memory (lean or not) for a batch from tau without a
+// caller's M^-1
+Status compact_register_cap(const Model& model, bool lean, const BlockShape& shape, int device, int& cap) {
   cudaDeviceProp prop{};
   if (Status s = cuda_status(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties"); !s) return s;
   SmLimits sm;
@@ -25,7 +26,7 @@ Status compact_register_cap(const Model& model, const BlockShape& shape, int dev
   BatchPointers<double> batch;
   batch.tau_input = true;
   const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1);
-  cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large),
+  cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large, lean),
                            large.threads_per_state * large.states_per_block);
   return Status::ok();
 }
@@ -33,15 +34,16 @@ Status compact_register_cap(const Model& model, const BlockShape& shape, int dev
 }  // namespace
 
 Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    const BlockShape& shape, int device, std::size_t max_shared_bytes,
+                                    bool lean, const BlockShape& shape, int device, std::size_t max_shared_bytes,
                                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
   k->build_.compact = compact;
+  k->build_.lean = compact && lean;
   if (compact && scalars != KernelScalars::kF32)
-    if (Status s = compact_register_cap(model, shape, device, k->build_.register_cap); !s) return s;
+    if (Status s = compact_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
                                        max_shared_bytes, cache_dir, k->library_);
       !s)
@@ -53,7 +55,7 @@ Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, i
 template <class S, class IO>
 std::size_t SpecializedBlockKernel::shared_bytes(const ModelView<S>& model, const BatchPointers<IO>& batch,
                                                  const BlockShape& shape) const {
-  return build_.compact ? compact_block_shared_bytes(model, batch, shape)
+  return build_.compact ? compact_block_shared_bytes(model, batch, shape, build_.lean)
                         : block_shared_bytes<S>(model.nv, batch.tau_input, shape);
 }
 

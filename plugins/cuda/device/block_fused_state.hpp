@@ -53,9 +53,9 @@ constexpr RBDGRAD_HD bool block_uses_aba(bool tau_input) {
 // Scalars of one state's working set for a batch (block_workspace.hpp), as the kernel carves them.
 template <class S>
 RBDGRAD_HD std::size_t block_state_scalars(const ModelView<S>& model, bool tau_input, bool minv_supplied,
-                                           bool compact) {
+                                           bool compact, bool lean = false) {
   return BlockWorkspace<S>::scalars(model.nv, block_uses_aba<S>(tau_input),
-                                    block_matrices(model.nv, model.matrix_scalars, compact, minv_supplied));
+                                    block_matrices(model.nv, model.matrix_scalars, compact, minv_supplied), lean);
 }
 
 namespace block {
@@ -184,7 +184,9 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // kStages: block_stages (a scene's fixed stages, which the batch follows) or kPerBatch.
 // kPacked: M, M^-1 computed here and d tau/d u packed by the roots' blocks (ModelView::matrix_row;
 // the compact kernel, block_kernel_entry.hpp), w's matrices sized so; else dense nv x nv.
-template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false>
+// kLean: w is the lean layout (block_workspace.hpp), B and Bc kept as their symmetric parts and h.
+template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false,
+          bool kLean = false>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
                                      std::uint64_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
@@ -193,6 +195,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   using block::dot6;
   using block::gravity_at;
   using block::row_dot;
+  using block::symmetric_row_dot;
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
   const IO* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
@@ -347,12 +350,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     else w.I[kSymmetricStride * i + symmetric_index(r, k)] = value;
   });
   g.sync();
-  // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and h = I v (kept in F
-  // until the subtree sums)
+  // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and the momentum h = I v
+  // (in F until the subtree sums, in the default layout)
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
     w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
-    w.F[t] = block::symmetric_row_dot(w.I, i, c, w.v + 6 * i);
+    w.h[t] = symmetric_row_dot(w.I, i, c, w.v + 6 * i);
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
@@ -365,40 +368,60 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   });
   g.sync();
   // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry (entry
-  // e of body i at item 6 n + e n + i, as the inertias)
+  // e of body i at item 6 n + e n + i, as the inertias). B's symmetric part is v x* I - I v x, its
+  // antisymmetric part h-bar = -[hn x, hf x; hf x, 0]; the lean layout keeps the first (its upper
+  // triangle) and leaves the second to h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and
+  // the subtree sums need h's (hc) alone.
   g.for_each(42 * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
-      const S Ia = block::symmetric_row_dot(w.I, i, c, w.a + 6 * i);
-      w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.F + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
+      const S Ia = symmetric_row_dot(w.I, i, c, w.a + 6 * i);
+      w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
     const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n, r = e / 6, c = e % 6;
+    if (kLean && r > c) return;
     const S* v = w.v + 6 * i;
     const S* I = w.I + kSymmetricStride * i;
     // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I
     S value = block::cross_force_column_at(v, I, c, r) + block::cross_force_column_at(v, I, r, c);
-    const S* h = w.F + 6 * i;
-    // - hn x in the top-left block, - hf x in the two off-diagonal blocks
-    if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
-    else if (r < 3) value -= block::skew_at(h + 3, r, c - 3);
-    else if (c < 3) value -= block::skew_at(h + 3, r - 3, c);
-    w.B[kBodyMatrixStride * i + e] = value;
+    if constexpr (kLean) {
+      w.B_sym[kSymmetricStride * i + symmetric_index(r, c)] = value;
+    } else {
+      const S* h = w.h + 6 * i;
+      // - hn x in the top-left block, - hf x in the two off-diagonal blocks
+      if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
+      else if (r < 3) value -= block::skew_at(h + 3, r, c - 3);
+      else if (c < 3) value -= block::skew_at(h + 3, r - 3, c);
+      w.B[kBodyMatrixStride * i + e] = value;
+    }
   });
   g.sync();
-  // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc, F. Two sums over alternate
-  // bodies, so that a long subtree (20 bodies in talos_reduced's torso) is two chains of adds
-  // whose loads do not wait on each other; the divisions by constants.
-  g.for_each(63 * n, [&](int t) {
+  // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc (lean: its symmetric part and
+  // hc), F. Two sums over alternate bodies, so that a long subtree (20 bodies in talos_reduced's
+  // torso) is two chains of adds whose loads do not wait on each other; the divisions by constants.
+  g.for_each((kLean ? 54 : 63) * n, [&](int t) {
     const S* from;
     S* to;
     int stride, i, x;
-    if (t < 21 * n) {
-      from = w.I, to = w.Ic, stride = kSymmetricStride, i = t / 21, x = t - 21 * i;
-    } else if (t < 57 * n) {
-      from = w.B, to = w.Bc, stride = kBodyMatrixStride, i = (t - 21 * n) / 36, x = t - 21 * n - 36 * i;
+    if constexpr (kLean) {
+      if (t < 21 * n) {
+        from = w.I, to = w.Ic, stride = kSymmetricStride, i = t / 21, x = t - 21 * i;
+      } else if (t < 42 * n) {
+        from = w.B_sym, to = w.Bc_sym, stride = kSymmetricStride, i = (t - 21 * n) / 21, x = t - 21 * n - 21 * i;
+      } else if (t < 48 * n) {
+        from = w.h, to = w.hc, stride = 6, i = (t - 42 * n) / 6, x = t - 42 * n - 6 * i;
+      } else {
+        from = w.f, to = w.F, stride = 6, i = (t - 48 * n) / 6, x = t - 48 * n - 6 * i;
+      }
     } else {
-      from = w.f, to = w.F, stride = 6, i = (t - 57 * n) / 6, x = t - 57 * n - 6 * i;
+      if (t < 21 * n) {
+        from = w.I, to = w.Ic, stride = kSymmetricStride, i = t / 21, x = t - 21 * i;
+      } else if (t < 57 * n) {
+        from = w.B, to = w.Bc, stride = kBodyMatrixStride, i = (t - 21 * n) / 36, x = t - 21 * n - 36 * i;
+      } else {
+        from = w.f, to = w.F, stride = 6, i = (t - 57 * n) / 6, x = t - 57 * n - 6 * i;
+      }
     }
     const S* entry = from + x;
     const int end = m.subtree_end[i];
@@ -421,9 +444,15 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
     const int i = t / 6, c = t % 6;
     const S* Si = w.axis + 6 * i;
-    w.Ic_S[t] = block::symmetric_row_dot(w.Ic, i, c, Si);
-    w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
-    if (want_dqd) w.E[t] = S(2) * block::symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
+    w.Ic_S[t] = symmetric_row_dot(w.Ic, i, c, Si);
+    if constexpr (kLean) {
+      const S sym = symmetric_row_dot(w.Bc_sym, i, c, Si), anti = cross_force_at(Si, 1, w.hc + 6 * i, 1, c);
+      w.Bc_t_S[t] = sym - anti;
+      if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + (sym + anti);
+    } else {
+      w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
+      if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
+    }
   });
   g.sync();
   // M entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry in row a and row
@@ -446,7 +475,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // M^-1 (in place in M, or the caller's), the inversion's pivots, and row i's block of M (below)
   S* const inverse = w.M;
-  S* const pivots = w.B;
+  // (in the default layout as B's offsets: the same code as before the lean layout was added)
+  S* const pivots = kLean ? w.pivots : w.B;
   auto block_begin = [&](int i) { return m.root_of[i]; };
   auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
 
@@ -536,9 +566,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // and columns are kept aside (snapshots, taken in the step before) so that every entry is
   // updated in place with one sync a step. A thread takes a segment of one row: the row's block
   // bounds and the pivot's reciprocal once for its entries.
-  // The pivots are kept (in B, free since the subtree sums); the thread that meets one that is not
-  // positive flags it (group_max: the core's order checks the last joint first), and the state's
-  // status is set once at the end, so that no serial check sits on the steps' critical path.
+  // The pivots are kept (in B, free since the subtree sums; lean: their own); the thread that meets
+  // one that is not positive flags it (group_max: the core's order checks the last joint first),
+  // and the state's status is set once at the end, so that no serial check sits on the steps'
+  // critical path.
   if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
@@ -550,8 +581,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   } else {
     // the snapshots: pivot row and column of each block's step, per joint (the blocks' index
     // ranges are disjoint), two of each so that a step writes the next one's
-    S* const snapshot_row = w.B + n;
-    S* const snapshot_col = w.B + 3 * n;
+    S* const snapshot_row = kLean ? w.snapshots : w.B + n;
+    S* const snapshot_col = kLean ? w.snapshots + 2 * n : w.B + 3 * n;
     g.for_each(n + dqd_fill_items, [&](int t) {
       if (t >= n) {
         fill_dtau_dqd(t - n);
@@ -640,7 +671,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
       if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
       w.beta[t] = beta;
-      w.f_qdd[t] = block::symmetric_row_dot(w.I, i, c, w.a_qdd + 6 * i);
+      w.f_qdd[t] = symmetric_row_dot(w.I, i, c, w.a_qdd + 6 * i);
     });
     g.sync();
     g.for_each(6 * n, [&](int t) {
@@ -653,8 +684,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
+      const S* alpha_i = w.alpha + 6 * i;
+      // Bc alpha (one expression, so that the default layout's code is what it was)
       w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) +
-                block::symmetric_row_dot(w.Ic, i, c, w.beta + 6 * i) + row_dot(w.Bc, i, c, w.alpha + 6 * i);
+                symmetric_row_dot(w.Ic, i, c, w.beta + 6 * i) +
+                (kLean ? symmetric_row_dot(w.Bc_sym, i, c, alpha_i) + cross_force_at(alpha_i, 1, w.hc + 6 * i, 1, c)
+                       : row_dot(w.Bc, i, c, alpha_i));
     });
     g.sync();
     g.for_each(n * n, [&](int t) {

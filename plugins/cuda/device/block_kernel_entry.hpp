@@ -14,6 +14,9 @@ namespace rbdgrad::cuda {
 // device memory (the placement and inertia passes read each once), only its tree goes to shared
 // memory, and M, M^-1 and d tau/d u are packed by the roots' blocks (ModelView::matrix_row; a
 // caller's M^-1 stays dense). The NVRTC build caps its registers to match (register_cap.hpp).
+// Its lean working set (kLean, block_workspace.hpp) is smaller again: B and Bc as their symmetric
+// parts and the momenta, each array placed by its lifetime (talos_reduced: five an SM at 192
+// threads a state).
 
 // The robot's ints a block copies to shared memory: the tree, and (compact) where the packed
 // matrices' rows start (the last of ModelLayout's ints, ModelView::matrix_row)
@@ -39,8 +42,9 @@ __device__ long long g_block_pass_clocks[ThreadGroup::kMaxPassClocks];
 #endif
 
 // IO: the batch's scalar type, S or (an f32 batch computed in f64) float. kStages: a scene's
-// fixed stages (block_stages), or decided per batch. kCompact: above.
-template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch, bool kCompact = false>
+// fixed stages (block_stages), or decided per batch. kCompact, kLean (only with kCompact): above.
+template <class S, class Model, class IO = S, int kStages = block_stages::kPerBatch, bool kCompact = false,
+          bool kLean = false>
 __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> batch) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int nv = FixedSizes<Model>::nv > 0 ? FixedSizes<Model>::nv : global_model.nv;
@@ -63,8 +67,8 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
   const int matrix_scalars = kCompact ? global_model.matrix_scalars : nv * nv;
   const BlockMatrices matrices{matrix_scalars, kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv};
   S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv, kCompact)) +
-            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrices);
-  const BlockWorkspace<S> w(base, nv, with_aba, matrices);
+            threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrices, kLean);
+  const BlockWorkspace<S> w(base, nv, with_aba, matrices, kLean);
   ThreadGroup g;
   g.rank = static_cast<int>(threadIdx.x);
   g.size = static_cast<int>(blockDim.x);
@@ -88,7 +92,7 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
     if (g.rank == 0) g_block_pass_clocks[1] = clock64();
   }
 #endif
-  block_evaluate_state<S, Model, IO, kStages, kCompact>(model, w, batch, active ? k : batch.n - 1, active, g);
+  block_evaluate_state<S, Model, IO, kStages, kCompact, kLean>(model, w, batch, active ? k : batch.n - 1, active, g);
 }
 #endif
 

@@ -12,8 +12,9 @@ namespace rbdgrad::cuda {
 // lanes of a warp that take the same entry of consecutive bodies hit different shared-memory
 // banks (at 36 doubles apart, 8 lanes share a bank).
 inline constexpr int kBodyMatrixStride = 37;
-// A symmetric 6x6 matrix (the inertias) as its upper triangle, row by row: 21 scalars a body (at
-// 21 doubles apart, a warp's lanes hit different banks too).
+// A symmetric 6x6 matrix (the inertias; B's symmetric part in the lean layout) as its upper
+// triangle, row by row: 21 scalars a body (at 21 doubles apart, a warp's lanes hit different banks
+// too).
 inline constexpr int kSymmetricStride = 21;
 RBDGRAD_HD constexpr int symmetric_index(int r, int c) {
   return r <= c ? r * 6 - r * (r - 1) / 2 + (c - r) : c * 6 - c * (c - 1) / 2 + (r - c);
@@ -30,12 +31,32 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
   return {matrix, compact && !minv_supplied ? matrix : dense};
 }
 
-// The arrays whose lifetimes do not overlap share memory, so that three states of talos_reduced
-// fit an SM's shared memory (at most 66 KiB of working set each): f and E sit where the local
-// placements were (dead after the inertias), the external forces where Bc will be (without the
-// articulated-body pass, which reads them later), the d/dq stage's vectors in B after the inversion's
-// pivots (B is dead after the subtree sums), and d tau/d qd and d tau/d q share one matrix (each
-// product with M^-1 follows its own).
+// Two layouts. Both: d tau/d qd and d tau/d q share one matrix (each product with M^-1 follows its
+// own), and arrays whose lifetimes do not overlap share memory.
+//
+// The default (three states of talos_reduced an SM, or four compact): f and E sit where the local
+// placements were (dead after the inertias), h in F until the subtree sums, the external forces
+// where Bc will be (without the articulated-body pass, which reads them later), the inversion's
+// pivots and snapshots and the d/dq stage's vectors in B (dead after the subtree sums); B and Bc
+// whole (6x6, kBodyMatrixStride apart).
+//
+// The lean layout (`lean`, the compact kernel's option: five states of talos_reduced an SM at 192
+// threads a state, 41 KiB of working set each): B and Bc as their symmetric parts (B_sym, Bc_sym)
+// and h and hc (block_fused_state.hpp), and every array placed by its lifetime. The passes of
+// block_fused_state.hpp, numbered, and what each array lives through (written .. last read):
+//   1 local placements   2 world placements   3 axes, com, Icw, f_ext   4 I, v   5 alpha, h
+//   6 a   7 f, B   8 subtree sums (Ic, Bc, hc, F)   9 Ic S, Bc^T S, E, c   10 M
+//   11 the inversion (and d tau/d qd)   12 qdd, d tau/d qd's product   13 a_qdd
+//   14 beta, f_qdd   15 F_total   16 Dq   17 d tau/d q   18 outputs
+// Always live (passes 3..18 at most): u, qdd, the pivots, axis, I, v, alpha, a, Ic, Bc_sym, hc,
+// F, Ic S and Bc^T S, 114 scalars a joint. The others take turns in what those hold before they
+// are written, and in a spare region T of 21 a joint:
+//   q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4), R (2..3), p (2..4) in Ic; qd (0..6)
+//   in hc; f_ext (3..7) in Bc_sym; h (5..8) in Ic S; f (7..8) in Bc^T S; in T: B_sym (7..8),
+//   then E (9..11), c (9..12) and the inversion's snapshots (11), then a_qdd (13..14) and F_total
+//   (15..16) at 0, beta (14..17) at 6, f_qdd (14..15) and Dq (16..17) at 12.
+// The f32 articulated-body pass (with_aba, after pass 10) reads R, p, qd and f_ext: those then get
+// arrays of their own, with the pass's own.
 template <class S>
 struct BlockWorkspace {
   // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
@@ -43,15 +64,19 @@ struct BlockWorkspace {
   // per body: local and world placements (row-major 3x3 and 3-vectors)
   S *R_local, *p_local, *R, *p;
   // per body 6-vectors: axis S, velocity, alpha = v_parent x S, acceleration (qdd = 0), beta,
-  // motion due to qdd, body force (qdd = 0), subtree force, body force due to qdd, total subtree
-  // force, Ic S, Bc^T S, 2 Ic alpha + Bc S, the d tau/d q column term, external force (world)
-  S *axis, *v, *alpha, *a, *beta, *a_qdd, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
+  // motion due to qdd, momentum h = I v and (lean) its subtree sum, body force (qdd = 0), subtree
+  // force, body force due to qdd, total subtree force, Ic S, Bc^T S, 2 Ic alpha + Bc S, the
+  // d tau/d q column term, external force (world)
+  S *axis, *v, *alpha, *a, *beta, *a_qdd, *h, *hc, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
   // per body: the inertia at the world origin and its subtree sum (symmetric, kSymmetricStride
-  // apart), the B operator and its subtree sum (6x6 row-major, kBodyMatrixStride apart)
-  S *I, *B, *Ic, *Bc;
+  // apart); the B operator and its subtree sum (6x6 row-major, kBodyMatrixStride apart; null in
+  // the lean layout), or their symmetric parts (kSymmetricStride apart; the lean layout's only)
+  S *I, *Ic, *B, *Bc, *B_sym, *Bc_sym;
   // nv x nv row-major, or packed by the roots' blocks (the compact kernel): M (M^-1 after the
   // inversion, in place, or the caller's, always dense); d tau/d qd, then d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
+  // the inversion's pivots (nv), and its snapshots of pivot rows and columns (4 nv)
+  S *pivots, *snapshots;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
   // U = IA S, c = alpha qd about the joint point, acceleration, d = S^T U and u = tau - S^T pA
@@ -60,24 +85,71 @@ struct BlockWorkspace {
   // when an output is not finite
   std::uint32_t *failed_pivot, *not_finite;
 
-  // the scalars before the d/dq stage's vectors in B: the inversion's pivots and snapshots
+  // the default layout: the scalars before the d/dq stage's vectors in B (pivots and snapshots)
   static constexpr int kInversionScalarsPerJoint = 5;
   static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
+  // (enumerators, not static members: NVRTC would emit those as unused globals)
+  enum : int {
+    // scalars a joint of the default layout, and of the articulated-body pass's arrays (f_ext's
+    // among them)
+    kScalarsPerJoint = 5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride,
+    kAbaScalarsPerJoint = 146,
+    // the lean layout's: always live, the spare region T, and with the articulated-body pass R, p
+    // and qd (13) besides the pass's arrays
+    kLeanLiveScalarsPerJoint = 114,
+    kLeanSpareScalarsPerJoint = 21,
+    kLeanAbaScalarsPerJoint = 13 + kAbaScalarsPerJoint,
+  };
 
   // scalars of S per state, its matrices dense, or as `matrices` says
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
     return scalars(nv, with_aba, block_matrices(nv, 0, false, false));
   }
-  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, BlockMatrices matrices) {
+  static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, BlockMatrices matrices, bool lean = false) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    return (5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride + (with_aba ? 146 : 0)) * n +
-           static_cast<std::size_t>(matrices.matrix) + static_cast<std::size_t>(matrices.minv) + kStatusScalars;
+    const int per_joint =
+        lean ? kLeanLiveScalarsPerJoint + kLeanSpareScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
+             : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
+    return static_cast<std::size_t>(per_joint) * n + static_cast<std::size_t>(matrices.matrix) +
+           static_cast<std::size_t>(matrices.minv) + kStatusScalars;
   }
 
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba)
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
-  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices) : next_(base) {
-    const int n = nv;
+  RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
+      : next_(base) {
+    if (lean) take_lean(nv);
+    else take_default(nv);
+    M = take(matrices.minv);
+    dtau_dq = dtau_dqd = take(matrices.matrix);
+    if (with_aba) {
+      const int n = nv;
+      if (lean) {
+        R = take(9 * n);
+        p = take(3 * n);
+        qd = take(n);
+      }
+      f_ext = take(6 * n);
+      I_joint = take(36 * n);
+      IA = take(36 * n);
+      to_parent = take(42 * n);
+      S** const aba_sixes[] = {&pA, &U, &aba_c, &aba_a};
+      for (S** x : aba_sixes) *x = take(6 * n);
+      aba_d = take(n);
+      aba_u = take(n);
+    } else {
+      I_joint = IA = to_parent = pA = U = aba_c = aba_a = aba_d = aba_u = nullptr;
+    }
+    auto* flags = reinterpret_cast<std::uint32_t*>(take(kStatusScalars));
+    failed_pivot = flags;
+    not_finite = flags + 1;
+  }
+
+ private:
+  // two uint32 flags in whole scalars of S (float or double)
+  static constexpr std::size_t kStatusScalars = 2;
+  // the arrays before the matrices, in each layout (the comment above)
+  RBDGRAD_HD void take_default(int n) {
     // arrays rather than initializer lists: device code has no std::initializer_list
     S** const vectors[] = {&q, &qd, &u, &qdd, &c};
     for (S** x : vectors) *x = take(n);
@@ -89,35 +161,54 @@ struct BlockWorkspace {
     E = R_local + 6 * n;
     S** const sixes[] = {&axis, &v, &alpha, &a, &F, &Ic_S, &Bc_t_S};
     for (S** x : sixes) *x = take(6 * n);
+    h = hc = F;
     I = take(kSymmetricStride * n);
     B = take(kBodyMatrixStride * n);
     Ic = take(kSymmetricStride * n);
     Bc = take(kBodyMatrixStride * n);
+    B_sym = Bc_sym = nullptr;
+    pivots = B;
+    snapshots = B + n;
     S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
     for (int k = 0; k < 5; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
-    M = take(matrices.minv);
-    dtau_dq = dtau_dqd = take(matrices.matrix);
-    if (with_aba) {
-      f_ext = take(6 * n);
-      I_joint = take(36 * n);
-      IA = take(36 * n);
-      to_parent = take(42 * n);
-      S** const aba_sixes[] = {&pA, &U, &aba_c, &aba_a};
-      for (S** x : aba_sixes) *x = take(6 * n);
-      aba_d = take(n);
-      aba_u = take(n);
-    } else {
-      f_ext = Bc;
-      I_joint = IA = to_parent = pA = U = aba_c = aba_a = aba_d = aba_u = nullptr;
-    }
-    auto* flags = reinterpret_cast<std::uint32_t*>(take(kStatusScalars));
-    failed_pivot = flags;
-    not_finite = flags + 1;
+    f_ext = Bc;  // with the articulated-body pass, which reads them later, an array of their own
   }
-
- private:
-  // two uint32 flags in whole scalars of S (float or double)
-  static constexpr std::size_t kStatusScalars = 2;
+  // (with the articulated-body pass R, p, qd and f_ext get arrays of their own after the matrices)
+  RBDGRAD_HD void take_lean(int n) {
+    u = take(n);
+    qdd = take(n);
+    pivots = take(n);
+    axis = take(6 * n);
+    I = take(kSymmetricStride * n);
+    v = take(6 * n);
+    alpha = take(6 * n);
+    a = take(6 * n);
+    Ic = take(kSymmetricStride * n);
+    Bc_sym = take(kSymmetricStride * n);
+    hc = take(6 * n);
+    F = take(6 * n);
+    Ic_S = take(6 * n);
+    Bc_t_S = take(6 * n);
+    S* const spare = take(kLeanSpareScalarsPerJoint * n);
+    B = Bc = nullptr;
+    // before their hosts are written (the comment above)
+    p_local = F;
+    q = F + 3 * n;
+    R_local = Ic;
+    R = Ic + 9 * n;
+    p = Ic + 18 * n;
+    qd = hc;
+    f_ext = Bc_sym;
+    h = Ic_S;
+    f = Bc_t_S;
+    B_sym = spare;
+    E = spare;
+    c = spare + 6 * n;
+    snapshots = spare + 7 * n;
+    a_qdd = F_total = spare;
+    beta = spare + 6 * n;
+    f_qdd = Dq = spare + 12 * n;
+  }
   RBDGRAD_HD S* take(int count) {
     S* at = next_;
     next_ += count;

@@ -5,7 +5,9 @@
 // of every pass in reverse order and as the GPU's group of 256 threads: the results must not
 // change, which shows that no item of a pass depends on another (on the GPU, such a dependency
 // would be a race) and that the items a group's size shapes cover the same entries. The compact
-// kernel's packed matrices (block_kernel_entry.hpp) give the same bits as the dense ones.
+// kernel's packed matrices (block_kernel_entry.hpp) give the same bits as the dense ones; its lean
+// working set (block_workspace.hpp: B by its symmetric part and h, arrays placed by lifetime),
+// another rounding, matches the core as closely.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -29,18 +31,19 @@ constexpr std::size_t kGuardScalars = 64;
 
 // Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
 // as the kernel compiled for it at load does. kPacked: the compact kernel's matrices, its working
-// set sized as the kernel sizes it (block_state_scalars).
-template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false>
+// set sized as the kernel sizes it (block_state_scalars). kLean: the lean working set.
+template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false,
+          bool kLean = false>
 std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
                                              bool tau_input, bool reverse) {
   const cuda::FlatModel<S> flat(model);
   const Model m(flat.host_view());
   const bool with_aba = cuda::block_uses_aba<S>(tau_input);
   cuda::BatchPointers<S> b = a.pointers(c, tau_input);
-  const std::size_t scalars = cuda::block_state_scalars(flat.host_view(), tau_input, b.minv != nullptr, kPacked);
+  const std::size_t scalars = cuda::block_state_scalars(flat.host_view(), tau_input, b.minv != nullptr, kPacked, kLean);
   std::vector<S> shared(scalars + kGuardScalars, poison<S>());
   const cuda::BlockWorkspace<S> w(shared.data(), model.nv, with_aba,
-                                  cuda::block_matrices(model.nv, flat.matrix_scalars, kPacked, b.minv != nullptr));
+                                  cuda::block_matrices(model.nv, flat.matrix_scalars, kPacked, b.minv != nullptr), kLean);
   std::vector<std::uint32_t> status(a.n, 0xffffffffu);
   b.status = status.data();
   cuda::ThreadGroup g;
@@ -49,7 +52,7 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   if (reverse) g.size = 256;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
-    cuda::block_evaluate_state<S, Model, S, kStages, kPacked>(m, w, b, k, true, g);
+    cuda::block_evaluate_state<S, Model, S, kStages, kPacked, kLean>(m, w, b, k, true, g);
     for (std::size_t e = scalars; e < shared.size(); ++e)
       EXPECT_EQ(0, std::memcmp(&shared[e], &shared.back(), sizeof(S))) << "state " << k << " wrote past its working set";
   }
@@ -89,6 +92,22 @@ void check_robot(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(a.out[f].data(), packed.out[f].data(), a.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " differs with the matrices packed";
+
+      // the lean working set, packed: against the core, and in reverse order as 256 threads the
+      // same bits
+      constexpr int kPerBatch = cuda::block_stages::kPerBatch;
+      CudaBatch<S> lean(states, model.nv, tau_input), lean_reversed(states, model.nv, tau_input);
+      lean.poison();
+      lean_reversed.poison();
+      const auto lean_status = run_block_on_host<S, cuda::ModelView<S>, kPerBatch, true, true>(model, lean, c, tau_input, false);
+      ASSERT_EQ(status, lean_status) << where << ", lean";
+      const Comparison lean_cmp = compare_with_core(model, lean, c, tau_input);
+      ASSERT_TRUE(lean_cmp.message.empty()) << where << ", lean: " << lean_cmp.message;
+      EXPECT_TRUE(lean_cmp.within_bounds<S>()) << where << ", lean: " << lean_cmp.summary();
+      run_block_on_host<S, cuda::ModelView<S>, kPerBatch, true, true>(model, lean_reversed, c, tau_input, true);
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_reversed.out[f].data(), lean.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set changed with the items in reverse order, as 256 threads";
     }
   }
 }
@@ -133,6 +152,18 @@ void check_fixed_sizes(const std::string& robot) {
       for (int f = 0; f < 8; ++f)
         ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), compact.out[f].data(), run_time.out[f].size() * sizeof(S)))
             << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed, packed";
+      // and the lean working set, run-time sizes against fixed ones
+      constexpr int kPerBatch = cuda::block_stages::kPerBatch;
+      CudaBatch<S> lean(states, model.nv, tau_input), lean_fixed(states, model.nv, tau_input);
+      lean.poison();
+      lean_fixed.poison();
+      const auto s4 = run_block_on_host<S, cuda::ModelView<S>, kPerBatch, true, true>(model, lean, c, tau_input, false);
+      const auto s5 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>, kPerBatch, true, true>(
+          model, lean_fixed, c, tau_input, false);
+      ASSERT_EQ(s4, s5) << where << ", lean";
+      for (int f = 0; f < 8; ++f)
+        ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_fixed.out[f].data(), lean.out[f].size() * sizeof(S)))
+            << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set differs with the sizes fixed";
     }
   }
 }
@@ -326,6 +357,11 @@ TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
     CudaBatch<double> a(states, model.nv, true);
     const OutputCase& c = kBlockCases[0];
     const std::vector<std::uint32_t> status = run_block_on_host(model, a, c, true, false);
+    CudaBatch<double> lean(states, model.nv, true);
+    const std::vector<std::uint32_t> lean_status =
+        run_block_on_host<double, cuda::ModelView<double>, cuda::block_stages::kPerBatch, true, true>(model, lean, c, true,
+                                                                                                    false);
+    EXPECT_EQ(status, lean_status) << robot << ": the lean working set's statuses";
     const cuda::FlatModel<double> flat(model);
     std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
     const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);

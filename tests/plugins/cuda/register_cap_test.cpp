@@ -22,41 +22,62 @@ cuda::SmLimits h200() {
 }
 
 // Shared memory of a block of one state at 256 threads (large batches of talos_reduced) for an f64
-// batch from tau without a caller's M^-1, compact or not.
-std::size_t talos_block_bytes(bool compact, bool minv_supplied = false) {
+// batch from tau without a caller's M^-1: the dense kernel, the compact one, or its lean working set.
+enum class Build { kDense, kCompact, kLean };
+std::size_t talos_block_bytes(Build build, bool minv_supplied = false) {
   const cuda::FlatModel<double> flat(load_embedded("talos_reduced"));
   cuda::BatchPointers<double> batch;
   batch.tau_input = true;
   const double minv = 0;
   if (minv_supplied) batch.minv = &minv;
   const cuda::BlockShape shape{256, 1};
-  return compact ? cuda::compact_block_shared_bytes(flat.host_view(), batch, shape)
-                 : cuda::block_shared_bytes<double>(flat.nv, true, shape);
+  return build == Build::kDense ? cuda::block_shared_bytes<double>(flat.nv, true, shape)
+                                : cuda::compact_block_shared_bytes(flat.host_view(), batch, shape, build == Build::kLean);
 }
 
 TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
   const cuda::SmLimits sm = h200();
   // the other kernel: 73.8 KiB a block, three an SM, no cap needed (ptxas takes 66 registers)
-  EXPECT_EQ(talos_block_bytes(false), 73760u);
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(false), 256), 3);
+  EXPECT_EQ(talos_block_bytes(Build::kDense), 73760u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kDense), 256), 3);
   // compact: 912 bytes of the tree and 55,440 of working set (M and d tau/d u 472 scalars each)
-  EXPECT_EQ(talos_block_bytes(true), 912u + 55440u);
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(true), 256), 4);
+  EXPECT_EQ(talos_block_bytes(Build::kCompact), 912u + 55440u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kCompact), 256), 4);
   // 4 blocks of 8 warps: 8 warps on each of the 4 sub-partitions, 16K registers each
-  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(true), 256), 64);
-  // a caller's M^-1 stays dense: three again, and no cap
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(true, true), 256), 3);
-  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(true, true), 256), 80);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kCompact), 256), 64);
+  // a caller's M^-1 stays dense: three again, at 80 registers
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kCompact, true), 256), 3);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kCompact, true), 256), 80);
+}
+
+TEST(RegisterCap, TheLeanWorkingSetFitsFiveTalosStatesAnSmAt192Threads) {
+  const cuda::SmLimits sm = h200();
+  // 912 bytes of the tree and 42,128 of working set (135 scalars a joint): five blocks by shared
+  // memory
+  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 42128u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 256), 5);
+  // five blocks of 8 warps would need 48 registers (10 warps a sub-partition), below what spills:
+  // the cap of four
+  EXPECT_EQ(cuda::registers_for_blocks(sm, 5, 256), 48);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 256), 64);
+  // at 192 threads a state five blocks of 6 warps take 64 (8 warps a sub-partition at most)
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 192), 5);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 192), 64);
+  // a caller's M^-1 (dense): four by shared memory, at 64 registers
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean, true), 256), 4);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean, true), 256), 64);
 }
 
 TEST(RegisterCap, NoCapBelowWhatSpillsOrAboveTheMost) {
   const cuda::SmLimits sm = h200();
-  // iiwa14's blocks (11 KiB, 64 threads): 18 an SM by shared memory would need 56 registers
+  // iiwa14's blocks (11 KiB, 64 threads): 18 an SM by shared memory would need 56 registers, 17
+  // would need 56 too
   const cuda::FlatModel<double> flat(load_embedded("iiwa14"));
   cuda::BatchPointers<double> batch;
   batch.tau_input = true;
   const std::size_t iiwa = cuda::compact_block_shared_bytes(flat.host_view(), batch, cuda::BlockShape{64, 1});
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, iiwa, 64), 18);
+  EXPECT_EQ(cuda::registers_for_blocks(sm, 17, 64), 56);
   EXPECT_EQ(cuda::block_register_cap(sm, iiwa, 64), 0);
   // one block of 32 threads an SM: any count fits
   EXPECT_EQ(cuda::block_register_cap(sm, 200000, 32), 0);
@@ -70,9 +91,10 @@ TEST(RegisterCap, CountsWarpsBySubPartition) {
   // three blocks of 96 threads (3 warps): 9 warps, 3 on one sub-partition: 16384 / 96 = 170 -> 168
   EXPECT_EQ(cuda::block_register_cap(sm, 70000, 96), 168);
   // the same by the SM's total would allow 65536 / 288 = 227
-  // threads limit as well: 2048 / 1024 = 2 blocks of 1024 threads, 64 warps, 16 a partition
+  // threads limit as well: 2048 / 1024 = 2 blocks of 1024 threads, 64 warps, 16 a partition: 32
+  // registers, below kMinRegisterCap; one block fewer, 64 (what a block of 1024 threads can have)
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, 1000, 1024), 2);
-  EXPECT_EQ(cuda::block_register_cap(sm, 1000, 1024), 0);  // 32 registers: below kMinRegisterCap
+  EXPECT_EQ(cuda::block_register_cap(sm, 1000, 1024), 64);
 }
 
 // The packed matrices are what the compact kernel saves beyond the constants: a one-root tree has
@@ -84,6 +106,8 @@ TEST(RegisterCap, CompactWorkingSetPacksOnlyBetweenBlocks) {
     const std::size_t dense = cuda::block_state_scalars(flat.host_view(), true, false, false);
     const std::size_t compact = cuda::block_state_scalars(flat.host_view(), true, false, true);
     EXPECT_EQ(dense - compact, 2u * static_cast<std::size_t>(n * n - flat.matrix_scalars)) << robot;
+    // the lean working set: 52 scalars a joint fewer (187 against 135)
+    EXPECT_EQ(compact - cuda::block_state_scalars(flat.host_view(), true, false, true, true), 52u * n) << robot;
   }
 }
 

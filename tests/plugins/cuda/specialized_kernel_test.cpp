@@ -158,27 +158,32 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
   }
 }
 
-// The block kernel compiled for the robot in both builds of option block_compact against the
-// generic one: compact (the default: the robot's scalar constants in device memory, the matrices
-// packed by the roots' blocks, its registers capped) and dense; a humanoid whose legs and torso
-// pack, a quadruped whose legs do, a chain that packs nothing; with M^-1 computed and brought by
-// the caller.
-TEST(CudaRobotSpecificKernel, CompactAndDenseKernelsMatchTheGenericOne) {
+// The block kernel compiled for the robot in its builds against the generic one: compact (the
+// default: the robot's scalar constants in device memory, the matrices packed by the roots'
+// blocks, its registers capped), compact with the lean working set (option block_lean), and dense;
+// a humanoid whose legs and torso pack, a quadruped whose legs do, a chain that packs nothing;
+// with M^-1 computed and brought by the caller.
+TEST(CudaRobotSpecificKernel, CompactLeanAndDenseKernelsMatchTheGenericOne) {
+  struct Build {
+    bool compact, lean;
+  };
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
-    for (const bool compact : {true, false}) {
+    for (const Build build : {Build{true, false}, Build{true, true}, Build{false, false}}) {
       const Model model = testing::load_embedded(name);
       std::unique_ptr<CudaInstance> instance;
       if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
       KernelOptions options;
-      options.block_compact = compact;
+      options.block_compact = build.compact;
+      options.block_lean = build.lean;
       ASSERT_TRUE(instance->set_kernel_options(options));
       if (Status s = instance->specialize(""); !s) {
         if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
         FAIL() << name << ": " << s.message();
       }
-      EXPECT_EQ(instance->kernel_description().find(", compact") != std::string::npos, compact)
-          << name << ": " << instance->kernel_description();
-      std::printf("%s: %s\n", name, instance->kernel_description().c_str());
+      const std::string description = instance->kernel_description();
+      EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
+      EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
+      std::printf("%s: %s\n", name, description.c_str());
       compare_block_kernels(*instance, name, model.nv);
     }
   }
