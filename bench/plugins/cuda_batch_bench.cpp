@@ -415,7 +415,7 @@ const bool registered = [] {
         }
       }
   // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
-  // the dense one and the lean working set (at 192 threads a state for large batches, five states
+  // the dense one and the lean working set (also at 192 threads a state at every size: five states
   // an SM), end to end at the anchors' sizes
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
     for (const Kernel& kernel : {default_kernel(), dense(default_kernel()), lean(default_kernel()),
