@@ -275,6 +275,20 @@ void check_fixed_stages(const std::string& robot, const OutputCase& c) {
     const Comparison cmp = compare_with_core(model, fixed, c, tau_input);
     ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
     EXPECT_TRUE(cmp.within_bounds<S>()) << where << ": " << cmp.summary();
+    // the compact kernel's lean working set, per batch and with the stages fixed: the same bits
+    CudaBatch<S> lean(states, model.nv, tau_input), lean_fixed(states, model.nv, tau_input);
+    lean.poison();
+    lean_fixed.poison();
+    const auto s3 =
+        run_block_on_host<S, cuda::ModelView<S>, cuda::block_stages::kPerBatch, true, true>(model, lean, c, tau_input, false);
+    const auto s4 = run_block_on_host<S, cuda::ModelView<S>, kStages, true, true>(model, lean_fixed, c, tau_input, true);
+    ASSERT_EQ(s3, s4) << where << ", lean";
+    for (int f = 0; f < 8; ++f)
+      ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_fixed.out[f].data(), lean.out[f].size() * sizeof(S)))
+          << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set differs with the stages fixed";
+    const Comparison lean_cmp = compare_with_core(model, lean_fixed, c, tau_input);
+    ASSERT_TRUE(lean_cmp.message.empty()) << where << ", lean: " << lean_cmp.message;
+    EXPECT_TRUE(lean_cmp.within_bounds<S>()) << where << ", lean: " << lean_cmp.summary();
   }
 }
 
