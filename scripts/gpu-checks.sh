@@ -10,8 +10,8 @@
 #   bash build-gpu-bundle/gpu-checks.sh [SANITIZER_TEST_FILTER [BENCHMARK_FILTER]]
 #
 # SANITIZER_TEST_FILTER: a --gtest_filter for plugin_cuda_specialized_kernel_tests under both tools
-# (default: '*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench
-# ('' skips it; default: the talos_reduced kernels' comparisons, docs/benchmarks/cuda.md).
+# (default: '*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench ('' skips
+# it; default: the talos_reduced kernels' comparisons and iiwa14's waves, docs/benchmarks/cuda.md).
 # SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
 # the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests
 # sanitizers bench revs" to run (default all), so that a run can fit the device tool's 10 minutes.
@@ -23,7 +23,7 @@ out=$(mktemp -d)
 mkdir -p "$result"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 sanitize=${1:-'*Compact*'}
-bench=${2-'cuda_pipeline/1chunks(-dense|-192|-lean|-lean-192)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/'}
+bench=${2-'cuda_pipeline/1chunks(-dense|-192|-lean|-lean-192)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
 failed=0
 step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last lines here
   local name=$1 status=0

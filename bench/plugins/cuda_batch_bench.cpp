@@ -423,6 +423,13 @@ const bool registered = [] {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }
+  // cuda_waves: iiwa14's warp kernel in one launch at 15 and 16 full waves of an H200 (132 SMs x 8
+  // warps x 4 states: 4224 states a wave) around the 15.5 of 65536 states: whether the last,
+  // half-full wave costs a whole one (issue 4's floor goal at 65536 states)
+  for (std::size_t n : {std::size_t{15 * 4224}, std::size_t{65536}, std::size_t{16 * 4224}}) {
+    add<float>("cuda_waves", "iiwa14", n, pipeline(1));
+    add<double>("cuda_waves", "iiwa14", n, pipeline(1));
+  }
   // cuda_mapped: mapped memory at sizes where the defaults copy
   for (const char* robot : {"iiwa14", "talos_reduced"})
     for (std::size_t n : {64, 256, 1024, 4096, 16384, 65536}) {
