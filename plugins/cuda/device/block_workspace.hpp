@@ -161,12 +161,12 @@ struct BlockWorkspace {
     E = R_local + 6 * n;
     S** const sixes[] = {&axis, &v, &alpha, &a, &F, &Ic_S, &Bc_t_S};
     for (S** x : sixes) *x = take(6 * n);
-    h = hc = F;
+    h = F;
     I = take(kSymmetricStride * n);
     B = take(kBodyMatrixStride * n);
     Ic = take(kSymmetricStride * n);
     Bc = take(kBodyMatrixStride * n);
-    B_sym = Bc_sym = nullptr;
+    B_sym = Bc_sym = hc = nullptr;  // the lean layout's
     pivots = B;
     snapshots = B + n;
     S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};

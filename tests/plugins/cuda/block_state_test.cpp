@@ -59,6 +59,15 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   return status;
 }
 
+// Whether two batches' outputs are the same bits (the first that is not, otherwise)
+template <class S>
+::testing::AssertionResult same_outputs(const CudaBatch<S>& x, const CudaBatch<S>& y) {
+  for (int f = 0; f < 8; ++f)
+    if (std::memcmp(x.out[f].data(), y.out[f].data(), x.out[f].size() * sizeof(S)) != 0)
+      return ::testing::AssertionFailure() << "output " << Comparison::plugin_output_name(f) << " differs";
+  return ::testing::AssertionSuccess();
+}
+
 template <class S>
 void check_robot(const std::string& robot) {
   const Model model = robot_model(robot);
@@ -79,9 +88,7 @@ void check_robot(const std::string& robot) {
       CudaBatch<S> reversed(states, model.nv, tau_input);
       reversed.poison();
       run_block_on_host(model, reversed, c, tau_input, true);
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(a.out[f].data(), reversed.out[f].data(), a.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " changed with the items in reverse order, as 256 threads";
+      ASSERT_TRUE(same_outputs(a, reversed)) << where << ": with the items in reverse order, as 256 threads";
 
       // packed by the roots' blocks, in reverse order as 256 threads: the same bits
       CudaBatch<S> packed(states, model.nv, tau_input);
@@ -89,9 +96,7 @@ void check_robot(const std::string& robot) {
       const std::vector<std::uint32_t> packed_status =
           run_block_on_host<S, cuda::ModelView<S>, cuda::block_stages::kPerBatch, true>(model, packed, c, tau_input, true);
       ASSERT_EQ(status, packed_status) << where << ", packed";
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(a.out[f].data(), packed.out[f].data(), a.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the matrices packed";
+      ASSERT_TRUE(same_outputs(a, packed)) << where << ": with the matrices packed";
 
       // the lean working set, packed: against the core, and in reverse order as 256 threads the
       // same bits
@@ -105,9 +110,7 @@ void check_robot(const std::string& robot) {
       ASSERT_TRUE(lean_cmp.message.empty()) << where << ", lean: " << lean_cmp.message;
       EXPECT_TRUE(lean_cmp.within_bounds<S>()) << where << ", lean: " << lean_cmp.summary();
       run_block_on_host<S, cuda::ModelView<S>, kPerBatch, true, true>(model, lean_reversed, c, tau_input, true);
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_reversed.out[f].data(), lean.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set changed with the items in reverse order, as 256 threads";
+      ASSERT_TRUE(same_outputs(lean, lean_reversed)) << where << ": the lean working set with the items in reverse order, as 256 threads";
     }
   }
 }
@@ -140,18 +143,14 @@ void check_fixed_sizes(const std::string& robot) {
       const auto s2 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>>(model, fixed, c, tau_input, false);
       const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
       ASSERT_EQ(s1, s2) << where;
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), fixed.out[f].data(), run_time.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed";
+      ASSERT_TRUE(same_outputs(run_time, fixed)) << where << ": with the sizes fixed";
       // and the compact kernel compiled for the robot: sizes fixed, matrices packed
       CudaBatch<S> compact(states, model.nv, tau_input);
       compact.poison();
       const auto s3 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>, cuda::block_stages::kPerBatch, true>(
           model, compact, c, tau_input, false);
       ASSERT_EQ(s1, s3) << where << ", compact";
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(run_time.out[f].data(), compact.out[f].data(), run_time.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " differs with the sizes fixed, packed";
+      ASSERT_TRUE(same_outputs(run_time, compact)) << where << ": with the sizes fixed, packed";
       // and the lean working set, run-time sizes against fixed ones
       constexpr int kPerBatch = cuda::block_stages::kPerBatch;
       CudaBatch<S> lean(states, model.nv, tau_input), lean_fixed(states, model.nv, tau_input);
@@ -161,9 +160,7 @@ void check_fixed_sizes(const std::string& robot) {
       const auto s5 = run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS>, kPerBatch, true, true>(
           model, lean_fixed, c, tau_input, false);
       ASSERT_EQ(s4, s5) << where << ", lean";
-      for (int f = 0; f < 8; ++f)
-        ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_fixed.out[f].data(), lean.out[f].size() * sizeof(S)))
-            << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set differs with the sizes fixed";
+      ASSERT_TRUE(same_outputs(lean, lean_fixed)) << where << ": the lean working set with the sizes fixed";
     }
   }
 }
@@ -269,9 +266,7 @@ void check_fixed_stages(const std::string& robot, const OutputCase& c) {
                               (tau_input ? ", tau input" : ", qdd input");
     ASSERT_EQ(s1, s2) << where;
     for (std::size_t k = 0; k < states.size(); ++k) ASSERT_EQ(s1[k], 0u) << where << " state " << k;
-    for (int f = 0; f < 8; ++f)
-      ASSERT_EQ(0, std::memcmp(per_batch.out[f].data(), fixed.out[f].data(), per_batch.out[f].size() * sizeof(S)))
-          << where << ": output " << Comparison::plugin_output_name(f) << " differs with the stages fixed";
+    ASSERT_TRUE(same_outputs(per_batch, fixed)) << where << ": with the stages fixed";
     const Comparison cmp = compare_with_core(model, fixed, c, tau_input);
     ASSERT_TRUE(cmp.message.empty()) << where << ": " << cmp.message;
     EXPECT_TRUE(cmp.within_bounds<S>()) << where << ": " << cmp.summary();
@@ -283,9 +278,7 @@ void check_fixed_stages(const std::string& robot, const OutputCase& c) {
         run_block_on_host<S, cuda::ModelView<S>, cuda::block_stages::kPerBatch, true, true>(model, lean, c, tau_input, false);
     const auto s4 = run_block_on_host<S, cuda::ModelView<S>, kStages, true, true>(model, lean_fixed, c, tau_input, true);
     ASSERT_EQ(s3, s4) << where << ", lean";
-    for (int f = 0; f < 8; ++f)
-      ASSERT_EQ(0, std::memcmp(lean.out[f].data(), lean_fixed.out[f].data(), lean.out[f].size() * sizeof(S)))
-          << where << ": output " << Comparison::plugin_output_name(f) << " of the lean working set differs with the stages fixed";
+    ASSERT_TRUE(same_outputs(lean, lean_fixed)) << where << ": the lean working set with the stages fixed";
     const Comparison lean_cmp = compare_with_core(model, lean_fixed, c, tau_input);
     ASSERT_TRUE(lean_cmp.message.empty()) << where << ", lean: " << lean_cmp.message;
     EXPECT_TRUE(lean_cmp.within_bounds<S>()) << where << ", lean: " << lean_cmp.summary();
