@@ -120,10 +120,11 @@ struct KernelOptions {
   // three, its kernel 29% faster at 65536 states and no slower end to end at any size measured,
   // docs/benchmarks/cuda.md). Read by specialize(), which builds the kernel.
   bool block_compact = true;
-  // the compact kernel's lean working set (device/block_workspace.hpp): B and Bc as their symmetric
-  // parts and momenta, each array placed by its lifetime (talos_reduced: 42 KiB a state where the
-  // compact kernel takes 55, five states an SM at 192 threads a state); not yet measured on a GPU,
-  // hence off. Needs block_compact. Read by specialize(), which builds the kernel.
+  // the compact kernel's lean working set (device/block_workspace.hpp): the inertias and B's and
+  // Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
+  // by its lifetime (talos_reduced: 30 KiB a state where the compact kernel takes 55, seven states
+  // an SM at 128 threads a state); not yet measured on a GPU, hence off. Needs block_compact. Read
+  // by specialize(), which builds the kernel.
   bool block_lean = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)

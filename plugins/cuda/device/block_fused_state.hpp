@@ -184,7 +184,8 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 // kStages: block_stages (a scene's fixed stages, which the batch follows) or kPerBatch.
 // kPacked: M, M^-1 computed here and d tau/d u packed by the roots' blocks (ModelView::matrix_row;
 // the compact kernel, block_kernel_entry.hpp), w's matrices sized so; else dense nv x nv.
-// kLean: w is the lean layout (block_workspace.hpp), B and Bc kept as their symmetric parts and h.
+// kLean: w is the lean layout (block_workspace.hpp): I, Ic and B's and Bc's symmetric parts by
+// their parameters (inertia_parameters.hpp), B's and Bc's antisymmetric parts by h and hc.
 template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false,
           bool kLean = false>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
@@ -215,6 +216,15 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const auto inverse_row = [&](int i) { return minv_supplied ? i * n : row_at(i); };
   // (a, b) in different blocks: not stored where packed
   const auto unstored = [&](int a, int bb) { return kPacked && m.root_of[a] != m.root_of[bb]; };
+  // (I x)_c and (Ic x)_c of body i: by the upper triangles, or (lean) by the parameters
+  const auto I_row = [&](int i, int c, const S* x) {
+    if constexpr (kLean) return block::inertia_row_dot(w.I, i, c, x, m.mass[i]);
+    else return symmetric_row_dot(w.I, i, c, x);
+  };
+  const auto Ic_row = [&](int i, int c, const S* x) {
+    if constexpr (kLean) return block::inertia_row_dot(w.Ic, i, c, x, w.Ic_mass[i]);
+    else return symmetric_row_dot(w.Ic, i, c, x);
+  };
 
   if (g.rank == 0) *w.failed_pivot = *w.not_finite = 0;
   // the joint transforms in the parent frames
@@ -314,8 +324,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // pass, at the joint point (c), entry by entry as spatial_inertia builds them; in the same pass
   // (one sync less: each pass costs about 650 cycles even when short, docs/benchmarks/cuda.md),
   // the velocities: sums of S_j qd_j over the ancestors-or-self (which are in the joint's block,
-  // from its root on). The entries go as the terms above: entry t / n of body t % n.
-  const int inertia_items = (w.I_joint ? 72 : 36) * n;
+  // from its root on). The entries go as the terms above: entry t / n of body t % n. The lean
+  // layout keeps I's nine parameters (inertia_parameters.hpp) where the other keeps its upper
+  // triangle (of 36 entries, those below the diagonal skipped); the joint point's inertia follows
+  // either.
+  constexpr int kInertiaEntries = kLean ? kInertiaParameterStride : 36;
+  const int inertia_items = (w.I_joint ? kInertiaEntries + 36 : kInertiaEntries) * n;
   g.for_each(inertia_items + 6 * n, [&](int t) {
     if (t >= inertia_items) {
       const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
@@ -326,8 +340,26 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       return;
     }
     const int local = by_n.quotient(t), i = t - local * n;
-    const bool joint_point = local >= 36;
-    const int e = local % 36, r = e / 6, k = e % 6;
+    const bool joint_point = local >= kInertiaEntries;
+    if (kLean && !joint_point) {
+      // h = m c, then J(r, k) = Icw(r, k) - (mc x c x)(r, k) of the upper triangle
+      const S mass = m.mass[i];
+      S c[3];
+      for (int x = 0; x < 3; ++x) c[x] = com_w[3 * i + x] + w.p[3 * i + x];
+      const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
+      S value;
+      if (local < 3) {
+        value = mc[local];
+      } else {
+        const int r = local < 6 ? 0 : local < 8 ? 1 : 2, k = local < 6 ? local - 3 : local < 8 ? local - 5 : 2;
+        using block::skew_at;
+        value = Icw[9 * i + 3 * r + k] - (skew_at(mc, r, 0) * skew_at(c, 0, k) + skew_at(mc, r, 1) * skew_at(c, 1, k) +
+                                          skew_at(mc, r, 2) * skew_at(c, 2, k));
+      }
+      w.I[kInertiaParameterStride * i + local] = value;
+      return;
+    }
+    const int e = kLean ? (joint_point ? local - kInertiaEntries : local) : local % 36, r = e / 6, k = e % 6;
     if (!joint_point && r > k) return;  // I is symmetric: its upper triangle
     const S mass = m.mass[i];
     S c[3];
@@ -355,7 +387,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6, par = m.parent[i];
     w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
-    w.h[t] = symmetric_row_dot(w.I, i, c, w.v + 6 * i);
+    w.h[t] = I_row(i, c, w.v + 6 * i);
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
@@ -368,26 +400,29 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   });
   g.sync();
   // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry (entry
-  // e of body i at item 6 n + e n + i, as the inertias). B's symmetric part is v x* I - I v x, its
-  // antisymmetric part h-bar = -[hn x, hf x; hf x, 0]; the lean layout keeps the first (its upper
-  // triangle) and leaves the second to h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and
-  // the subtree sums need h's (hc) alone.
-  g.for_each(42 * n, [&](int t) {
+  // e of body i at item 6 n + e n + i, as the inertias). B's symmetric part is v x* I - I v x (the
+  // rate of I moving with v), its antisymmetric part h-bar = -[hn x, hf x; hf x, 0]; the lean
+  // layout keeps the first (by its parameters, inertia_parameters.hpp) and leaves the second to
+  // h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and the subtree sums need h's (hc)
+  // alone.
+  constexpr int kBEntries = kLean ? kInertiaParameterStride : 36;
+  g.for_each((6 + kBEntries) * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
-      const S Ia = symmetric_row_dot(w.I, i, c, w.a + 6 * i);
+      const S Ia = I_row(i, c, w.a + 6 * i);
       w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
-    const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n, r = e / 6, c = e % 6;
-    if (kLean && r > c) return;
-    const S* v = w.v + 6 * i;
-    const S* I = w.I + kSymmetricStride * i;
-    // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I
-    S value = block::cross_force_column_at(v, I, c, r) + block::cross_force_column_at(v, I, r, c);
+    const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n;
     if constexpr (kLean) {
-      w.B_sym[kSymmetricStride * i + symmetric_index(r, c)] = value;
+      w.B_sym[kInertiaParameterStride * i + e] =
+          block::inertia_rate_parameter(w.I + kInertiaParameterStride * i, m.mass[i], w.v + 6 * i, e);
     } else {
+      const int r = e / 6, c = e % 6;
+      const S* v = w.v + 6 * i;
+      const S* I = w.I + kSymmetricStride * i;
+      // (v x* I)(r, c) + (v x* I)(c, r): columns c and r of I
+      S value = block::cross_force_column_at(v, I, c, r) + block::cross_force_column_at(v, I, r, c);
       const S* h = w.h + 6 * i;
       // - hn x in the top-left block, - hf x in the two off-diagonal blocks
       if (r < 3 && c < 3) value -= block::skew_at(h, r, c);
@@ -397,22 +432,26 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   });
   g.sync();
-  // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc (lean: its symmetric part and
-  // hc), F. Two sums over alternate bodies, so that a long subtree (20 bodies in talos_reduced's
-  // torso) is two chains of adds whose loads do not wait on each other; the divisions by constants.
-  g.for_each((kLean ? 54 : 63) * n, [&](int t) {
+  // subtree sums (the subtree of i is [i, subtree_end[i])): Ic, Bc (lean: the parameters of Ic
+  // and of Bc's symmetric part, Ic's mass, and hc), F. Two sums over alternate bodies, so that a
+  // long subtree (20 bodies in talos_reduced's torso) is two chains of adds whose loads do not
+  // wait on each other; the divisions by constants.
+  g.for_each((kLean ? 31 : 63) * n, [&](int t) {
     const S* from;
     S* to;
     int stride, i, x;
     if constexpr (kLean) {
-      if (t < 21 * n) {
-        from = w.I, to = w.Ic, stride = kSymmetricStride, i = t / 21, x = t - 21 * i;
-      } else if (t < 42 * n) {
-        from = w.B_sym, to = w.Bc_sym, stride = kSymmetricStride, i = (t - 21 * n) / 21, x = t - 21 * n - 21 * i;
-      } else if (t < 48 * n) {
-        from = w.h, to = w.hc, stride = 6, i = (t - 42 * n) / 6, x = t - 42 * n - 6 * i;
+      constexpr int P = kInertiaParameterStride;
+      if (t < P * n) {
+        from = w.I, to = w.Ic, stride = P, i = t / P, x = t - P * i;
+      } else if (t < 2 * P * n) {
+        from = w.B_sym, to = w.Bc_sym, stride = P, i = (t - P * n) / P, x = t - P * n - P * i;
+      } else if (t < (2 * P + 6) * n) {
+        from = w.h, to = w.hc, stride = 6, i = (t - 2 * P * n) / 6, x = t - 2 * P * n - 6 * i;
+      } else if (t < (2 * P + 12) * n) {
+        from = w.f, to = w.F, stride = 6, i = (t - (2 * P + 6) * n) / 6, x = t - (2 * P + 6) * n - 6 * i;
       } else {
-        from = w.f, to = w.F, stride = 6, i = (t - 48 * n) / 6, x = t - 48 * n - 6 * i;
+        from = m.mass, to = w.Ic_mass, stride = 1, i = t - (2 * P + 12) * n, x = 0;
       }
     } else {
       if (t < 21 * n) {
@@ -444,11 +483,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
     const int i = t / 6, c = t % 6;
     const S* Si = w.axis + 6 * i;
-    w.Ic_S[t] = symmetric_row_dot(w.Ic, i, c, Si);
+    w.Ic_S[t] = Ic_row(i, c, Si);
     if constexpr (kLean) {
-      const S sym = symmetric_row_dot(w.Bc_sym, i, c, Si), anti = cross_force_at(Si, 1, w.hc + 6 * i, 1, c);
+      const S sym = block::rate_row_dot(w.Bc_sym, i, c, Si), anti = cross_force_at(Si, 1, w.hc + 6 * i, 1, c);
       w.Bc_t_S[t] = sym - anti;
-      if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + (sym + anti);
+      if (want_dqd) w.E[t] = S(2) * Ic_row(i, c, w.alpha + 6 * i) + (sym + anti);
     } else {
       w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
       if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
@@ -671,7 +710,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
       if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
       w.beta[t] = beta;
-      w.f_qdd[t] = symmetric_row_dot(w.I, i, c, w.a_qdd + 6 * i);
+      w.f_qdd[t] = I_row(i, c, w.a_qdd + 6 * i);
     });
     g.sync();
     g.for_each(6 * n, [&](int t) {
@@ -687,8 +726,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S* alpha_i = w.alpha + 6 * i;
       // Bc alpha (one expression, so that the default layout's code is what it was)
       w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) +
-                symmetric_row_dot(w.Ic, i, c, w.beta + 6 * i) +
-                (kLean ? symmetric_row_dot(w.Bc_sym, i, c, alpha_i) + cross_force_at(alpha_i, 1, w.hc + 6 * i, 1, c)
+                Ic_row(i, c, w.beta + 6 * i) +
+                (kLean ? block::rate_row_dot(w.Bc_sym, i, c, alpha_i) + cross_force_at(alpha_i, 1, w.hc + 6 * i, 1, c)
                        : row_dot(w.Bc, i, c, alpha_i));
     });
     g.sync();

@@ -14,9 +14,9 @@ namespace rbdgrad::cuda {
 // device memory (the placement and inertia passes read each once), only its tree goes to shared
 // memory, and M, M^-1 and d tau/d u are packed by the roots' blocks (ModelView::matrix_row; a
 // caller's M^-1 stays dense). The NVRTC build caps its registers to match (register_cap.hpp).
-// Its lean working set (kLean, block_workspace.hpp) is smaller again: B and Bc as their symmetric
-// parts and the momenta, each array placed by its lifetime (talos_reduced: five an SM at 192
-// threads a state).
+// Its lean working set (kLean, block_workspace.hpp) is smaller again: the inertias and B's and
+// Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
+// by its lifetime (talos_reduced: seven an SM at 128 threads a state).
 
 // The robot's ints a block copies to shared memory: the tree, and (compact) where the packed
 // matrices' rows start (the last of ModelLayout's ints, ModelView::matrix_row)

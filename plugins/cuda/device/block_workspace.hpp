@@ -4,6 +4,7 @@
 // block_fused_state.hpp hand to each other.
 #pragma once
 
+#include "inertia_parameters.hpp"
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {
@@ -40,21 +41,27 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
 // pivots and snapshots and the d/dq stage's vectors in B (dead after the subtree sums); B and Bc
 // whole (6x6, kBodyMatrixStride apart).
 //
-// The lean layout (`lean`, the compact kernel's option: five states of talos_reduced an SM at 192
-// threads a state, 41 KiB of working set each): B and Bc as their symmetric parts (B_sym, Bc_sym)
-// and h and hc (block_fused_state.hpp), and every array placed by its lifetime. The passes of
-// block_fused_state.hpp, numbered, and what each array lives through (written .. last read):
+// The lean layout (`lean`, the compact kernel's option: seven states of talos_reduced an SM at 128
+// threads a state, 30.1 KiB of working set each): I, Ic, B's and Bc's symmetric parts (B_sym,
+// Bc_sym) by their nine parameters (inertia_parameters.hpp; Ic's mass in Ic_mass, I's the model's,
+// the rates' zero), B's and Bc's antisymmetric parts by h and hc (block_fused_state.hpp), and
+// every array placed by its lifetime. The passes of block_fused_state.hpp, numbered, and what each
+// array lives through (written .. last read):
 //   1 local placements   2 world placements   3 axes, com, Icw, f_ext   4 I, v   5 alpha, h
-//   6 a   7 f, B   8 subtree sums (Ic, Bc, hc, F)   9 Ic S, Bc^T S, E, c   10 M
+//   6 a   7 f, B   8 subtree sums (Ic, Ic_mass, Bc, hc, F)   9 Ic S, Bc^T S, E, c   10 M
 //   11 the inversion (and d tau/d qd)   12 qdd, d tau/d qd's product   13 a_qdd
 //   14 beta, f_qdd   15 F_total   16 Dq   17 d tau/d q   18 outputs
-// Always live (passes 3..18 at most): u, qdd, the pivots, axis, I, v, alpha, a, Ic, Bc_sym, hc,
-// F, Ic S and Bc^T S, 114 scalars a joint. The others take turns in what those hold before they
-// are written, and in a spare region T of 21 a joint:
-//   q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4), R (2..3), p (2..4) in Ic; qd (0..6)
-//   in hc; f_ext (3..7) in Bc_sym; h (5..8) in Ic S; f (7..8) in Bc^T S; in T: B_sym (7..8),
-//   then E (9..11), c (9..12) and the inversion's snapshots (11), then a_qdd (13..14) and F_total
-//   (15..16) at 0, beta (14..17) at 6, f_qdd (14..15) and Dq (16..17) at 12.
+// Always live (passes 3..18 at most): u, qdd, the pivots, Ic_mass, axis, I, v, alpha, a, Ic,
+// Bc_sym, hc, F, Ic S and Bc^T S, 79 scalars a joint. The others take turns in what those hold
+// before they are written, in a spare region T, and in d tau/d u's matrix, free from the product
+// of d tau/d qd (12) until d tau/d q is written (17):
+//   q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in hc; f_ext (3..7)
+//   in Bc_sym; h (5..8) in Ic S; f (7..8) in Bc^T S; in T: R (2..3) at 0 and p (2..4) at 9, then
+//   B_sym (7..8), then E (9..11), c (9..12) and the inversion's snapshots (11), then beta (14..17)
+//   at 0 and Dq (16..17) at 6; in the matrix a_qdd (13..14) and F_total (15..16) at 0 and f_qdd
+//   (14..15) at 6 n. T takes 12 scalars a joint; where the matrix has fewer than 12 n scalars
+//   (a tree of fewer than 12 joints, or of small blocks) those three go to T too, 18 a joint:
+//   a_qdd and F_total at 0, beta at 6, f_qdd and Dq at 12.
 // The f32 articulated-body pass (with_aba, after pass 10) reads R, p, qd and f_ext: those then get
 // arrays of their own, with the pass's own.
 template <class S>
@@ -69,9 +76,11 @@ struct BlockWorkspace {
   // d tau/d q column term, external force (world)
   S *axis, *v, *alpha, *a, *beta, *a_qdd, *h, *hc, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
   // per body: the inertia at the world origin and its subtree sum (symmetric, kSymmetricStride
-  // apart); the B operator and its subtree sum (6x6 row-major, kBodyMatrixStride apart; null in
-  // the lean layout), or their symmetric parts (kSymmetricStride apart; the lean layout's only)
-  S *I, *Ic, *B, *Bc, *B_sym, *Bc_sym;
+  // apart; the lean layout: their parameters, kInertiaParameterStride apart, and the subtree sums'
+  // masses, Ic_mass, null in the default layout); the B operator and its subtree sum (6x6
+  // row-major, kBodyMatrixStride apart; null in the lean layout), or their symmetric parts (the
+  // lean layout's only, by their parameters)
+  S *I, *Ic, *Ic_mass, *B, *Bc, *B_sym, *Bc_sym;
   // nv x nv row-major, or packed by the roots' blocks (the compact kernel): M (M^-1 after the
   // inversion, in place, or the caller's, always dense); d tau/d qd, then d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
@@ -94,12 +103,16 @@ struct BlockWorkspace {
     // among them)
     kScalarsPerJoint = 5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride,
     kAbaScalarsPerJoint = 146,
-    // the lean layout's: always live, the spare region T, and with the articulated-body pass R, p
-    // and qd (13) besides the pass's arrays
-    kLeanLiveScalarsPerJoint = 114,
-    kLeanSpareScalarsPerJoint = 21,
+    // the lean layout's: always live, the spare region T (with a_qdd, F_total and f_qdd, or
+    // without where d tau/d u's matrix holds them), and with the articulated-body pass R, p and
+    // qd (13) besides the pass's arrays
+    kLeanLiveScalarsPerJoint = 79,
+    kLeanSpareScalarsPerJoint = 12,
+    kLeanSpareWithLateScalarsPerJoint = 18,
     kLeanAbaScalarsPerJoint = 13 + kAbaScalarsPerJoint,
   };
+  // whether the lean layout puts a_qdd, F_total and f_qdd in d tau/d u's matrix (`matrix` scalars)
+  static RBDGRAD_HD bool lean_late_in_matrix(int nv, int matrix) { return matrix >= 12 * nv; }
 
   // scalars of S per state, its matrices dense, or as `matrices` says
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
@@ -107,9 +120,10 @@ struct BlockWorkspace {
   }
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, BlockMatrices matrices, bool lean = false) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    const int per_joint =
-        lean ? kLeanLiveScalarsPerJoint + kLeanSpareScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
-             : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
+    const int spare = lean_late_in_matrix(nv, matrices.matrix) ? kLeanSpareScalarsPerJoint
+                                                               : kLeanSpareWithLateScalarsPerJoint;
+    const int per_joint = lean ? kLeanLiveScalarsPerJoint + spare + (with_aba ? kLeanAbaScalarsPerJoint : 0)
+                               : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
     return static_cast<std::size_t>(per_joint) * n + static_cast<std::size_t>(matrices.matrix) +
            static_cast<std::size_t>(matrices.minv) + kStatusScalars;
   }
@@ -118,10 +132,15 @@ struct BlockWorkspace {
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
       : next_(base) {
-    if (lean) take_lean(nv);
+    const bool late_in_matrix = lean && lean_late_in_matrix(nv, matrices.matrix);
+    if (lean) take_lean(nv, late_in_matrix);
     else take_default(nv);
     M = take(matrices.minv);
     dtau_dq = dtau_dqd = take(matrices.matrix);
+    if (late_in_matrix) {
+      a_qdd = F_total = dtau_dq;
+      f_qdd = dtau_dq + 6 * nv;
+    }
     if (with_aba) {
       const int n = nv;
       if (lean) {
@@ -166,7 +185,7 @@ struct BlockWorkspace {
     B = take(kBodyMatrixStride * n);
     Ic = take(kSymmetricStride * n);
     Bc = take(kBodyMatrixStride * n);
-    B_sym = Bc_sym = hc = nullptr;  // the lean layout's
+    Ic_mass = B_sym = Bc_sym = hc = nullptr;  // the lean layout's
     pivots = B;
     snapshots = B + n;
     S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
@@ -174,29 +193,31 @@ struct BlockWorkspace {
     f_ext = Bc;  // with the articulated-body pass, which reads them later, an array of their own
   }
   // (with the articulated-body pass R, p, qd and f_ext get arrays of their own after the matrices)
-  RBDGRAD_HD void take_lean(int n) {
+  // (late_in_matrix: a_qdd, F_total and f_qdd are placed in the matrix after it is taken)
+  RBDGRAD_HD void take_lean(int n, bool late_in_matrix) {
     u = take(n);
     qdd = take(n);
     pivots = take(n);
+    Ic_mass = take(n);
     axis = take(6 * n);
-    I = take(kSymmetricStride * n);
+    I = take(kInertiaParameterStride * n);
     v = take(6 * n);
     alpha = take(6 * n);
     a = take(6 * n);
-    Ic = take(kSymmetricStride * n);
-    Bc_sym = take(kSymmetricStride * n);
+    Ic = take(kInertiaParameterStride * n);
+    Bc_sym = take(kInertiaParameterStride * n);
     hc = take(6 * n);
     F = take(6 * n);
     Ic_S = take(6 * n);
     Bc_t_S = take(6 * n);
-    S* const spare = take(kLeanSpareScalarsPerJoint * n);
+    S* const spare = take((late_in_matrix ? kLeanSpareScalarsPerJoint : kLeanSpareWithLateScalarsPerJoint) * n);
     B = Bc = nullptr;
     // before their hosts are written (the comment above)
     p_local = F;
     q = F + 3 * n;
     R_local = Ic;
-    R = Ic + 9 * n;
-    p = Ic + 18 * n;
+    R = spare;
+    p = spare + 9 * n;
     qd = hc;
     f_ext = Bc_sym;
     h = Ic_S;
@@ -205,9 +226,14 @@ struct BlockWorkspace {
     E = spare;
     c = spare + 6 * n;
     snapshots = spare + 7 * n;
-    a_qdd = F_total = spare;
-    beta = spare + 6 * n;
-    f_qdd = Dq = spare + 12 * n;
+    if (late_in_matrix) {
+      beta = spare;
+      Dq = spare + 6 * n;
+    } else {
+      a_qdd = F_total = spare;
+      beta = spare + 6 * n;
+      f_qdd = Dq = spare + 12 * n;
+    }
   }
   RBDGRAD_HD S* take(int count) {
     S* at = next_;

@@ -229,15 +229,13 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
 }
 
 // The lean working set (block_workspace.hpp) of the compact kernel for talos_reduced: its f64 builds
-// at the cap that five blocks of 192 threads (or four of 256) an SM give them, 64. ptxas spills a
-// little there (CUDA 13.0: 4 bytes of stores and 32 of loads in f64, 12 and 40 for f32 batches, in
-// a 128- or 144-byte stack frame; 70 registers uncapped): bounded here, so that a change that
-// spills more shows, until a GPU weighs the fifth state against them. Its f32 build compiles.
+// at the cap that seven blocks of 128 threads an SM give them, 72 (RegisterCap's tests). ptxas's
+// spills there are bounded, so that a change that spills more shows. Its f32 build compiles.
 TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithLittleSpill) {
   SKIP_WITHOUT_NVRTC();
   const Model model = load_embedded("talos_reduced");
   for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
-    cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, {true, 64, true});
+    cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, {true, 72, true});
     EXPECT_THAT(p.source, HasSubstr("lean working set")) << cuda::kernel_scalars_name(scalars);
     p.options.push_back("--ptxas-options=--verbose");
     cuda::NvrtcOutput out;
@@ -247,7 +245,7 @@ TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithLittleSpill) {
     std::printf("talos_reduced lean %s: %d registers, %d bytes spill stores, %d bytes spill loads\n",
                 cuda::kernel_scalars_name(scalars), r.registers, r.spill_stores, r.spill_loads);
     EXPECT_GT(r.registers, 0) << out.log;
-    EXPECT_LE(r.registers, 64) << out.log;
+    EXPECT_LE(r.registers, 72) << out.log;
     EXPECT_LE(r.spill_stores, 16) << out.log;
     EXPECT_LE(r.spill_loads, 64) << out.log;
   }

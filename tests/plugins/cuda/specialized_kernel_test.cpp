@@ -160,21 +160,25 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
 
 // The block kernel compiled for the robot in its builds against the generic one: compact (the
 // default: the robot's scalar constants in device memory, the matrices packed by the roots'
-// blocks, its registers capped), compact with the lean working set (option block_lean), and dense;
-// a humanoid whose legs and torso pack, a quadruped whose legs do, a chain that packs nothing;
-// with M^-1 computed and brought by the caller.
+// blocks, its registers capped), compact with the lean working set (option block_lean; also at 128
+// threads a state, its shape for seven talos_reduced states an SM), and dense; a humanoid whose
+// legs and torso pack, a quadruped whose legs do, a chain that packs nothing; with M^-1 computed
+// and brought by the caller.
 TEST(CudaRobotSpecificKernel, CompactLeanAndDenseKernelsMatchTheGenericOne) {
   struct Build {
     bool compact, lean;
+    int threads_per_state;  // 0: the automatic shape
   };
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
-    for (const Build build : {Build{true, false}, Build{true, true}, Build{false, false}}) {
+    for (const Build build :
+         {Build{true, false, 0}, Build{true, true, 0}, Build{true, true, 128}, Build{false, false, 0}}) {
       const Model model = testing::load_embedded(name);
       std::unique_ptr<CudaInstance> instance;
       if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
       KernelOptions options;
       options.block_compact = build.compact;
       options.block_lean = build.lean;
+      options.block_shape.threads_per_state = build.threads_per_state;
       ASSERT_TRUE(instance->set_kernel_options(options));
       if (Status s = instance->specialize(""); !s) {
         if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
@@ -183,7 +187,7 @@ TEST(CudaRobotSpecificKernel, CompactLeanAndDenseKernelsMatchTheGenericOne) {
       const std::string description = instance->kernel_description();
       EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
       EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
-      std::printf("%s: %s\n", name, description.c_str());
+      std::printf("%s (%d threads a state, 0 automatic): %s\n", name, build.threads_per_state, description.c_str());
       compare_block_kernels(*instance, name, model.nv);
     }
   }
