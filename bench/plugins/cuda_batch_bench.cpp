@@ -407,21 +407,19 @@ const bool registered = [] {
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         // and the dense block kernel, three states an SM where the compact one fits four (one
         // block of 256 threads a state), the compact one at 192 threads a state, and its lean
-        // working set at 256 (three states an SM, by its registers) and at 128 (seven)
+        // working set at its automatic 128 threads a state (seven states an SM) and at 256 (three,
+        // by its registers)
         for (const Kernel& k : {dense(pipeline(chunks)), wider(pipeline(chunks), 192), lean(pipeline(chunks)),
-                                wider(lean(pipeline(chunks)), 128)}) {
+                                wider(lean(pipeline(chunks)), 256)}) {
           add<float>("cuda_pipeline", robot, n, k);
           add<double>("cuda_pipeline", robot, n, k);
         }
       }
   // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
-  // the dense one and the lean working set, end to end at the anchors' sizes; the lean one also at
-  // 128 threads a state (seven states an SM) from 1024 states, where the plugin's shape is chosen
-  // for throughput (block_shape_for)
+  // the dense one and the lean working set (seven states an SM at the 128 threads a state of its
+  // automatic shape for large batches, block_shape_for), end to end at the anchors' sizes
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-    for (const Kernel& kernel : {default_kernel(), dense(default_kernel()), lean(default_kernel()),
-                                 wider(lean(default_kernel()), 128)}) {
-      if (kernel.options.block_shape.threads_per_state == 128 && n < 1024) continue;
+    for (const Kernel& kernel : {default_kernel(), dense(default_kernel()), lean(default_kernel())}) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }

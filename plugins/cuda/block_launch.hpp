@@ -22,12 +22,18 @@ struct BlockShape {
 /// docs/benchmarks/cuda.md): 256 for batches of up to kWideStates, which leave most of the GPU
 /// idle, so that the latency of one state is what counts; for larger ones 8 per joint, rounded up
 /// to a power of two, from 64 to 256 (64 is the fastest for iiwa14 there, 256 for talos_reduced).
+/// The compact kernel's lean working set (`lean`, block_workspace.hpp) takes at most
+/// kLeanThreadsPerState for larger ones: seven talos_reduced states an SM at 72 registers a
+/// thread, where at 256 threads its 80 registers allow three (register_cap.hpp; not yet measured
+/// on a GPU).
 inline constexpr std::size_t kWideStates = 256;
-inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n) {
+inline constexpr int kLeanThreadsPerState = 128;
+inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n, bool lean = false) {
   BlockShape shape = requested;
   if (shape.threads_per_state == 0) {
     int t = 64;
     while (t < 8 * nv && t < 256) t *= 2;
+    if (lean && t > kLeanThreadsPerState) t = kLeanThreadsPerState;
     shape.threads_per_state = n <= kWideStates ? 256 : t;
   }
   return shape;

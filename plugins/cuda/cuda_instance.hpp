@@ -123,8 +123,9 @@ struct KernelOptions {
   // the compact kernel's lean working set (device/block_workspace.hpp): the inertias and B's and
   // Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
   // by its lifetime (talos_reduced: 30 KiB a state where the compact kernel takes 55, seven states
-  // an SM at 128 threads a state); not yet measured on a GPU, hence off. Needs block_compact. Read
-  // by specialize(), which builds the kernel.
+  // an SM at 128 threads a state, its automatic shape for large batches: block_shape_for); not yet
+  // measured on a GPU, hence off. Needs block_compact. Read by specialize(), which builds the
+  // kernel, and by the launches' shape.
   bool block_lean = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)

@@ -25,7 +25,7 @@ Status compact_register_cap(const Model& model, bool lean, const BlockShape& sha
   const FlatModel<double> flat(model);
   BatchPointers<double> batch;
   batch.tau_input = true;
-  const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1);
+  const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1, lean);
   cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large, lean),
                            large.threads_per_state * large.states_per_block);
   return Status::ok();

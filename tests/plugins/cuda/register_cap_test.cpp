@@ -68,6 +68,23 @@ TEST(RegisterCap, TheLeanWorkingSetFitsSevenTalosStatesAnSmAt128Threads) {
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean, true), 192), 64);
 }
 
+// The automatic shape (block_shape_for) and the cap it leads to: the lean working set takes 128
+// threads a state for large batches, where its registers at 256 would allow three states an SM.
+TEST(RegisterCap, LeanWorkingSetTakes128ThreadsAStateForLargeBatches) {
+  const std::size_t large = cuda::kWideStates + 1;
+  // talos_reduced (32 joints): 256 threads a state, or 128 with the lean working set
+  EXPECT_EQ(cuda::block_shape_for({}, 32, large).threads_per_state, 256);
+  EXPECT_EQ(cuda::block_shape_for({}, 32, large, true).threads_per_state, 128);
+  // small batches keep 256 (one state's latency counts), small models their fewer threads
+  EXPECT_EQ(cuda::block_shape_for({}, 32, cuda::kWideStates, true).threads_per_state, 256);
+  EXPECT_EQ(cuda::block_shape_for({}, 7, large, true).threads_per_state, 64);
+  // a shape asked for is kept
+  EXPECT_EQ(cuda::block_shape_for({192, 1}, 32, large, true).threads_per_state, 192);
+  // which gives the lean build seven blocks at 72 registers
+  const cuda::BlockShape shape = cuda::block_shape_for({}, 32, large, true);
+  EXPECT_EQ(cuda::block_register_cap(h200(), talos_block_bytes(Build::kLean), shape.threads_per_state), 72);
+}
+
 TEST(RegisterCap, NoCapBelowWhatSpillsOrAboveTheMost) {
   const cuda::SmLimits sm = h200();
   // iiwa14's blocks (11 KiB, 64 threads): 18 an SM by shared memory would need 56 registers, 17

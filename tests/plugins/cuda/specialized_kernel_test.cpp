@@ -160,8 +160,8 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
 
 // The block kernel compiled for the robot in its builds against the generic one: compact (the
 // default: the robot's scalar constants in device memory, the matrices packed by the roots'
-// blocks, its registers capped), compact with the lean working set (option block_lean; also at 128
-// threads a state, its shape for seven talos_reduced states an SM), and dense; a humanoid whose
+// blocks, its registers capped), compact with the lean working set (option block_lean; at its
+// automatic shape, 128 threads a state for 1000 states, and at 256), and dense; a humanoid whose
 // legs and torso pack, a quadruped whose legs do, a chain that packs nothing; with M^-1 computed
 // and brought by the caller.
 TEST(CudaRobotSpecificKernel, CompactLeanAndDenseKernelsMatchTheGenericOne) {
@@ -171,7 +171,7 @@ TEST(CudaRobotSpecificKernel, CompactLeanAndDenseKernelsMatchTheGenericOne) {
   };
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
     for (const Build build :
-         {Build{true, false, 0}, Build{true, true, 0}, Build{true, true, 128}, Build{false, false, 0}}) {
+         {Build{true, false, 0}, Build{true, true, 0}, Build{true, true, 256}, Build{false, false, 0}}) {
       const Model model = testing::load_embedded(name);
       std::unique_ptr<CudaInstance> instance;
       if (Status s = CudaInstance::create(model, 0, instance); !s) GTEST_SKIP() << "no GPU: " << s.message();
