@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "device/warp_kernel_entry.hpp"
+#include "flat_model.hpp"
 
 namespace rbdgrad::cuda {
 
@@ -73,8 +74,11 @@ NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int
   p.headers.assign(kEmbeddedDeviceHeaders, kEmbeddedDeviceHeaders + kEmbeddedDeviceHeaderCount);
   p.options = compile_options(arch);
   if (build.register_cap > 0) p.options.push_back("--maxrregcount=" + std::to_string(build.register_cap));
+  // the lean build's packed matrices' size as a constant too (model_view.hpp says why); the other
+  // builds are as they were measured
+  const std::string fixed_matrix = lean ? ", " + std::to_string(FlatModel<double>(model).matrix_scalars) : "";
   p.name_expressions = {"rbdgrad::cuda::block_fused_kernel<" + scalar + ", rbdgrad::cuda::FixedSizeModelView<" +
-                        scalar + ", " + nv + ", " + levels + ">" + io + staged + compact + ">"};
+                        scalar + ", " + nv + ", " + levels + fixed_matrix + ">" + io + staged + compact + ">"};
   return p;
 }
 

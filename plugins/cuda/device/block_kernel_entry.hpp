@@ -63,8 +63,12 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
   const bool with_aba = block_uses_aba<S>(batch.tau_input);
   // block_matrices(nv, global_model.matrix_scalars, kCompact, batch.minv != nullptr) written out:
   // through the call ptxas spills the compact kernel at its register cap (CUDA 13.0: 12 bytes),
-  // in this form it does not (KernelSource.CompactTalosKernelHoldsItsRegisterCapWithoutSpills)
-  const int matrix_scalars = kCompact ? global_model.matrix_scalars : nv * nv;
+  // in this form it does not (KernelSource.CompactTalosKernelHoldsItsRegisterCapWithoutSpills);
+  // the packed size a constant where the model type fixes it (the lean build)
+  constexpr int kFixedMatrixScalars = FixedSizes<Model>::matrix_scalars;
+  const int matrix_scalars = kFixedMatrixScalars > 0 ? kFixedMatrixScalars
+                             : kCompact              ? global_model.matrix_scalars
+                                                     : nv * nv;
   const BlockMatrices matrices{matrix_scalars, kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv};
   S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv, kCompact)) +
             threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrices, kLean);

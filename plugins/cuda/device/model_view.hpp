@@ -51,14 +51,18 @@ struct ModelView {
 
 // A ModelView whose sizes are compile-time constants: the block kernel compiled for one robot when
 // its model is loaded (kernel_source.cpp) sees nv and the tree's depth as constants, so that its
-// loops over joints have fixed trip counts and its index arithmetic divides by constants. The
-// arrays are the same as the view's. Code that takes a ModelView<S>& sees the run-time sizes,
-// which are equal.
-template <class S, int NV, int LEVELS>
+// loops over joints have fixed trip counts and its index arithmetic divides by constants; the
+// lean build sees the packed matrices' size too (MATRIX_SCALARS, 0: the view's, at run time), so
+// that its working set's arrays all sit at constant offsets (ptxas: no spills at 72 registers for
+// talos_reduced, where the run-time size spills 8 bytes). The arrays are the same as the view's.
+// Code that takes a ModelView<S>& sees the run-time sizes, which are equal.
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS = 0>
 struct FixedSizeModelView : ModelView<S> {
   static_assert(NV >= 1 && LEVELS >= 1 && LEVELS <= NV, "a tree of NV joints is 1 to NV levels deep");
+  static_assert(MATRIX_SCALARS >= 0 && MATRIX_SCALARS <= NV * NV, "the packed matrices are at most nv x nv");
   static constexpr int nv = NV;
   static constexpr int levels = LEVELS;
+  static constexpr int matrix_scalars = MATRIX_SCALARS;
   RBDGRAD_HD explicit FixedSizeModelView(const ModelView<S>& view) : ModelView<S>(view) {}
 };
 
@@ -87,15 +91,15 @@ struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
   RBDGRAD_HD explicit FixedTreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS>(view) {}
 };
 
-// The number of joints and the tree depth a model type fixes at compile time, 0 for run-time
-// sizes.
+// The number of joints, the tree depth and the packed matrices' size a model type fixes at compile
+// time, 0 for run-time sizes.
 template <class Model>
 struct FixedSizes {
-  static constexpr int nv = 0, levels = 0;
+  static constexpr int nv = 0, levels = 0, matrix_scalars = 0;
 };
-template <class S, int NV, int LEVELS>
-struct FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {
-  static constexpr int nv = NV, levels = LEVELS;
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS>
+struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>> {
+  static constexpr int nv = NV, levels = LEVELS, matrix_scalars = MATRIX_SCALARS;
 };
 template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long E>
 struct FixedSizes<FixedTreeModelView<S, NV, LEVELS, P, E>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};

@@ -91,12 +91,13 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, 6).name, "block_kernel_iiwa14_f64.cu");
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6, {true, 0}).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6, true>");
-  // the lean working set: after compact, named in the file and the comment; nothing without compact
+  // the lean working set: after compact, named in the file and the comment, its packed matrices'
+  // size a constant (iiwa14's one block: 49); nothing without compact
   const cuda::NvrtcProgram lean =
       cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, 64, true});
   EXPECT_EQ(lean.name_expressions.at(0),
-            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, double, -1, true, "
-            "true>");
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7, 49>, double, -1, "
+            "true, true>");
   EXPECT_EQ(lean.name, "block_kernel_iiwa14_f64_compact_lean.cu");
   EXPECT_THAT(lean.source, HasSubstr("compact block kernel with a lean working set"));
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {false, 0, true})
@@ -229,9 +230,10 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
 }
 
 // The lean working set (block_workspace.hpp) of the compact kernel for talos_reduced: its f64 builds
-// at the cap that seven blocks of 128 threads an SM give them, 72 (RegisterCap's tests). ptxas's
-// spills there are bounded, so that a change that spills more shows. Its f32 build compiles.
-TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithLittleSpill) {
+// hold the cap that seven blocks of 128 threads an SM give them, 72 (RegisterCap's tests), without
+// spills (CUDA 13.0; 80 registers uncapped; with the packed matrices' size known only at run time
+// it spilled 8 bytes). Its f32 build compiles.
+TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
   const Model model = load_embedded("talos_reduced");
   for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
@@ -246,8 +248,8 @@ TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithLittleSpill) {
                 cuda::kernel_scalars_name(scalars), r.registers, r.spill_stores, r.spill_loads);
     EXPECT_GT(r.registers, 0) << out.log;
     EXPECT_LE(r.registers, 72) << out.log;
-    EXPECT_LE(r.spill_stores, 16) << out.log;
-    EXPECT_LE(r.spill_loads, 64) << out.log;
+    EXPECT_EQ(r.spill_stores, 0) << out.log;
+    EXPECT_EQ(r.spill_loads, 0) << out.log;
   }
   cuda::NvrtcOutput out;
   const Status s = cuda::nvrtc_compile(
