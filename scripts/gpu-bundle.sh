@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Packs what a lent GPU machine needs to check the CUDA plugin (the `device` tool's machines have
 # CUDA 13 and its tools, not the project's Debian libraries): a portable Release build for sm_90,
-# its CUDA test and benchmark programs, the plugin, the shared libraries they load beyond the C and
-# C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them there. Builds in
+# its CUDA test and benchmark programs, the daemon and the CLI, the plugin, the shared libraries
+# they load beyond the C and C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them
+# there. Builds in
 # build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the second).
 # Each REV given adds that commit's cuda_batch_bench (bin/cuda_batch_bench-REV, built from a
 # worktree in build-cuda/), which gpu-checks.sh times against this one's default kernel.
@@ -15,7 +16,8 @@ build="build-cuda/portable"
 bundle="build-gpu-bundle"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DRBDGRAD_NATIVE=OFF -DRBDGRAD_BUILD_BENCH=ON >/dev/null
 programs=(tests/plugins/cuda/plugin_cuda_tests tests/plugins/cuda/plugin_cuda_specialized_kernel_tests
-          tests/plugins/cuda/plugin_cuda_kernel_choice_tests bench/cuda_batch_bench bench/cuda_flop_count)
+          tests/plugins/cuda/plugin_cuda_kernel_choice_tests bench/cuda_batch_bench bench/cuda_flop_count
+          server/rbdgradd tools/rbdgrad)
 targets=()
 for p in "${programs[@]}"; do targets+=("$(basename "$p")"); done
 cmake --build "$build" -j"$(nproc)" --target "${targets[@]}" rbdgrad_cuda

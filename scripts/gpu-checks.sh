@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs the CUDA plugin's checks on a lent GPU machine from the bundle scripts/gpu-bundle.sh made
-# (carried as build-gpu-bundle/, the repository's working tree around it): the GPU tests,
-# compute-sanitizer's memcheck and racecheck on the tests given, the benchmarks given, and the
-# earlier commits' default kernel against this one's where the bundle has them. Prints each step's
+# (carried as build-gpu-bundle/, the repository's working tree around it): the GPU tests, the
+# daemon's results through the plugin (`rbdgrad compute --backend cuda` on the reference states of
+# iiwa14 and talos_reduced, f64 and f32, against the reference), compute-sanitizer's memcheck and
+# racecheck on the tests given, the benchmarks given, and the earlier commits' default kernel
+# against this one's where the bundle has them. Prints each step's
 # last lines; its logs and the benchmarks' JSON go to $OUT/gpu-checks.tgz (one file: the device
 # tool brings back 8 at most; $OUT defaults to ./gpu-checks-out). A step that fails is said so and
 # the next one still runs; the exit status is 1 if any failed.
@@ -13,7 +15,7 @@
 # (default: '*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench ('' skips
 # it; default: the talos_reduced kernels' comparisons and iiwa14's waves, docs/benchmarks/cuda.md).
 # SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
-# the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests
+# the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests daemon
 # sanitizers bench revs" to run (default all), so that a run can fit the device tool's 10 minutes.
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -56,11 +58,58 @@ fi
 echo "bundle of $(tr '\n' ' ' <"$here/commit"), on $(nvidia-smi -L 2>/dev/null | head -n 1), $(date -u +%FT%TZ)" |
   tee "$out/about.txt"
 
-steps=" ${STEPS:-tests sanitizers bench revs} "
+steps=" ${STEPS:-tests daemon sanitizers bench revs} "
 if [[ $steps == *" tests "* ]]; then
   step tests "$here/bin/plugin_cuda_tests"
   step specialized "$here/bin/plugin_cuda_specialized_kernel_tests"
   step choice "$here/bin/plugin_cuda_kernel_choice_tests"
+fi
+
+# daemon_compute ROBOT PRECISION TOL [compare_results.py options]: the daemon with the bundle's CUDA
+# plugin serving ROBOT; `rbdgrad compute --backend cuda` on its reference states, for the gradient
+# outputs (the warp and block kernels' request) and for every output (the one-thread kernel's),
+# whose results must match the reference within TOL (relative Frobenius error, compare_results.py)
+daemon_compute() {
+  local robot=$1 precision=$2 tol=$3 work status=0
+  shift 3
+  work=$(mktemp -d)
+  printf 'plugins:\n  - path: %s\n' "$here/lib/librbdgrad_cuda.so" >"$work/config.yaml"
+  "$here/bin/rbdgradd" --config "$work/config.yaml" --model "$robot" --listen 127.0.0.1:0 --unix-socket "" \
+    --ready-file "$work/ready" >"$work/daemon.log" 2>&1 &
+  local pid=$!
+  for _ in $(seq 600); do
+    [[ -s "$work/ready" ]] && break
+    kill -0 "$pid" 2>/dev/null || break
+    sleep 0.1
+  done
+  local server
+  server=$(awk '$1 == "tcp" { print $2; exit }' "$work/ready" 2>/dev/null || true)
+  if [[ -z "$server" ]]; then
+    echo "rbdgradd did not start:"
+    cat "$work/daemon.log"
+    kill "$pid" 2>/dev/null
+    return 1
+  fi
+  grep -F "cuda" "$work/daemon.log" | head -n 5
+  local outputs
+  for outputs in qdd,Minv,dqdd_dq,dqdd_dqd qdd,M,Minv,dqdd_dq,dqdd_dqd,tau_id,dtau_dq,dtau_dqd; do
+    echo "-- outputs $outputs"
+    "$here/bin/rbdgrad" compute --server "$server" --model "$robot" --backend cuda --precision "$precision" \
+      --output-type "$precision" --outputs "$outputs" --in "$repo/tests/data/reference/$robot.jsonl" \
+      --out "$work/out.jsonl" | tee "$work/compute.txt" || status=1
+    grep -q "^backend cuda," "$work/compute.txt" || { echo "not computed by the cuda backend"; status=1; }
+    python3 "$repo/tests/tools/compare_results.py" "$work/out.jsonl" "$repo/tests/data/reference/$robot.jsonl" \
+      --tol "$tol" --precision "$precision" --outputs "$outputs" "$@" || status=1
+  done
+  kill -TERM "$pid"
+  wait "$pid" || status=1
+  return "$status"
+}
+if [[ $steps == *" daemon "* ]]; then
+  for robot in iiwa14 talos_reduced; do
+    step "daemon-$robot-f64" daemon_compute "$robot" f64 1e-10
+    step "daemon-$robot-f32" daemon_compute "$robot" f32 1e-3 --median-tol 1e-4
+  done
 fi
 if [[ $steps == *" sanitizers "* ]]; then
   step memcheck "$sanitizer" --tool memcheck --error-exitcode 1 "${sanitizer_options[@]}" \
