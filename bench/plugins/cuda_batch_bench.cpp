@@ -417,12 +417,20 @@ const bool registered = [] {
       }
   // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
   // the dense one and the lean working set (seven states an SM at the 128 threads a state of its
-  // automatic shape for large batches, block_shape_for), end to end at the anchors' sizes
-  for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536})
-    for (const Kernel& kernel : {default_kernel(), dense(default_kernel()), lean(default_kernel())}) {
+  // automatic shape for large batches, block_shape_for), end to end at the anchors' sizes; from
+  // 1024 states also the lean one at 192 and 256 threads a state (four and three states an SM by
+  // their uncapped registers), to choose its shape by the batch's size
+  for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
+    std::vector<Kernel> builds{default_kernel(), dense(default_kernel()), lean(default_kernel())};
+    if (n >= 1024) {
+      builds.push_back(wider(lean(default_kernel()), 192));
+      builds.push_back(wider(lean(default_kernel()), 256));
+    }
+    for (const Kernel& kernel : builds) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);
       add<double>("cuda_compact", "talos_reduced", n, kernel);
     }
+  }
   // cuda_waves: iiwa14's warp kernel in one launch at 15 and 16 full waves of an H200 (132 SMs x 8
   // warps x 4 states: 4224 states a wave) around the 15.5 of 65536 states: whether the last,
   // half-full wave costs a whole one (issue 4's floor goal at 65536 states)
