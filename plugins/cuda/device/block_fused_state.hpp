@@ -225,6 +225,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kLean) return block::inertia_row_dot(w.Ic, i, c, x, w.Ic_mass[i]);
     else return symmetric_row_dot(w.Ic, i, c, x);
   };
+  // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
+  // (lean) or the 36 of the matrix
+  constexpr int kBodyEntries = kLean ? kInertiaParameterStride : 36;
 
   if (g.rank == 0) *w.failed_pivot = *w.not_finite = 0;
   // the joint transforms in the parent frames
@@ -328,8 +331,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // layout keeps I's nine parameters (inertia_parameters.hpp) where the other keeps its upper
   // triangle (of 36 entries, those below the diagonal skipped); the joint point's inertia follows
   // either.
-  constexpr int kInertiaEntries = kLean ? kInertiaParameterStride : 36;
-  const int inertia_items = (w.I_joint ? kInertiaEntries + 36 : kInertiaEntries) * n;
+  const int inertia_items = (w.I_joint ? kBodyEntries + 36 : kBodyEntries) * n;
   g.for_each(inertia_items + 6 * n, [&](int t) {
     if (t >= inertia_items) {
       const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
@@ -340,7 +342,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       return;
     }
     const int local = by_n.quotient(t), i = t - local * n;
-    const bool joint_point = local >= kInertiaEntries;
+    const bool joint_point = local >= kBodyEntries;
     if (kLean && !joint_point) {
       // h = m c, then J(r, k) = Icw(r, k) - (mc x c x)(r, k) of the upper triangle
       const S mass = m.mass[i];
@@ -359,7 +361,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       w.I[kInertiaParameterStride * i + local] = value;
       return;
     }
-    const int e = kLean ? (joint_point ? local - kInertiaEntries : local) : local % 36, r = e / 6, k = e % 6;
+    const int e = kLean ? (joint_point ? local - kBodyEntries : local) : local % 36, r = e / 6, k = e % 6;
     if (!joint_point && r > k) return;  // I is symmetric: its upper triangle
     const S mass = m.mass[i];
     S c[3];
@@ -405,8 +407,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // layout keeps the first (by its parameters, inertia_parameters.hpp) and leaves the second to
   // h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and the subtree sums need h's (hc)
   // alone.
-  constexpr int kBEntries = kLean ? kInertiaParameterStride : 36;
-  g.for_each((6 + kBEntries) * n, [&](int t) {
+  g.for_each((6 + kBodyEntries) * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
       const S Ia = I_row(i, c, w.a + 6 * i);
