@@ -204,9 +204,7 @@ bool CudaInstance::use_block_kernel(const BatchPointers<S>& batch, std::size_t n
       n >= kernel_.f32_thread_kernel_min_states)
     return false;
   return n <= kernel_.block_max_states && block_kernel_supports(batch) &&
-         block_shared_bytes<C>(model_.nv, batch.tau_input,
-                               block_shape_for(kernel_.block_shape, model_.nv, n, kernel_.block_lean)) <=
-             max_shared_bytes_;
+         block_shared_bytes<C>(model_.nv, batch.tau_input, block_shape<C, S>(n)) <= max_shared_bytes_;
 }
 
 template <> const ModelView<double>& CudaInstance::view<double>() const { return view_f64_; }
@@ -217,6 +215,12 @@ const SpecializedBlockKernel* CudaInstance::specialized() const {
   if constexpr (std::is_same_v<C, float>) return specialized_f32_.get();
   else if constexpr (std::is_same_v<S, float>) return specialized_f64_for_f32_.get();
   else return specialized_f64_.get();
+}
+
+template <class C, class S>
+BlockShape CudaInstance::block_shape(std::size_t n) const {
+  const SpecializedBlockKernel* k = specialized<C, S>();
+  return block_shape_for(kernel_.block_shape, model_.nv, n, k && k->build().lean);
 }
 
 const WarpKernelTable* CudaInstance::warp_table() const {
@@ -419,7 +423,7 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
                              !inputs[4].from && inputs[0].from && inputs[1].from && inputs[2].from &&
                              3 * vec <= kWarpInlineInputBytes;
   const std::size_t inline_block = inline_inputs ? warp_inline_block_bytes(3 * vec, kernel_.warp_inline_min_block) : 0;
-  const BlockShape shape = block_shape_for(kernel_.block_shape, model_.nv, n, kernel_.block_lean);
+  const BlockShape shape = wide ? block_shape<double, S>(n) : block_shape<S, S>(n);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     // one chunk: everything on one stream (fewest calls); several: see the class comment

@@ -244,6 +244,9 @@ class CudaInstance {
                                  std::size_t inline_block, cudaStream_t stream);
   template <class S> const ModelView<S>& view() const;
   template <class C, class S> const SpecializedBlockKernel* specialized() const;
+  // the block kernel's shape for a batch of n states computed in C: lean where the kernel that
+  // runs is the lean build (not where the option is on but the generic kernel runs instead)
+  template <class C, class S> BlockShape block_shape(std::size_t n) const;
   // the warp kernel's entry points compiled for the robot, or null (the generic ones)
   const WarpKernelTable* warp_table() const;
 
