@@ -39,6 +39,9 @@ step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last
     echo "   FAILED (exit $status)"
     failed=1
   fi
+  # after every step, so that a run cut off by the device tool's time limit still brings back
+  # the steps it finished
+  tar czf "$result/gpu-checks.tgz" -C "$out" .
 }
 sanitizer=$(command -v compute-sanitizer || echo /usr/local/cuda/bin/compute-sanitizer)
 read -r -a sanitizer_options <<<"${SANITIZER_OPTIONS:-}"
