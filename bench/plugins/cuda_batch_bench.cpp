@@ -218,12 +218,14 @@ Kernel wider(Kernel k, int threads) {
 Kernel dense(Kernel k) {
   k.name += "-dense";
   k.options.block_compact = false;
+  k.options.block_lean = false;
   return k;
 }
-// `k` with the compact kernel's lean working set (plugin option block_lean)
-Kernel lean(Kernel k) {
-  k.name += "-lean";
-  k.options.block_lean = true;
+// `k` with the compact kernel's full working set (plugin option block_lean: false; the lean one,
+// the default, fits more states an SM still)
+Kernel full(Kernel k) {
+  k.name += "-full";
+  k.options.block_lean = false;
   return k;
 }
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
@@ -405,26 +407,27 @@ const bool registered = [] {
         if (n != 65536 || std::string(robot) != "talos_reduced") continue;
         add<float>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
-        // and the dense block kernel, three states an SM where the compact one fits four (one
-        // block of 256 threads a state), the compact one at 192 threads a state, and its lean
-        // working set at its automatic 128 threads a state (seven states an SM) and at 256 (three,
-        // by its registers)
-        for (const Kernel& k : {dense(pipeline(chunks)), wider(pipeline(chunks), 192), lean(pipeline(chunks)),
-                                wider(lean(pipeline(chunks)), 256)}) {
+        // and the dense block kernel, three states an SM (one block of 256 threads a state), the
+        // compact one with its full working set, four, and the default (its lean working set,
+        // seven states an SM at its automatic 128 threads a state) at 192 threads a state (four,
+        // by its registers) and at 256 (three)
+        for (const Kernel& k : {dense(pipeline(chunks)), full(pipeline(chunks)), wider(pipeline(chunks), 192),
+                                wider(pipeline(chunks), 256)}) {
           add<float>("cuda_pipeline", robot, n, k);
           add<double>("cuda_pipeline", robot, n, k);
         }
       }
-  // cuda_compact: talos_reduced's block kernel, compact (the default, four states an SM) against
-  // the dense one and the lean working set (seven states an SM at the 128 threads a state of its
-  // automatic shape for large batches, block_shape_for), end to end at the anchors' sizes; from
-  // 1024 states also the lean one at 192 and 256 threads a state (four and three states an SM by
-  // their uncapped registers), to choose its shape by the batch's size
+  // cuda_compact: talos_reduced's block kernel, the default (compact with its lean working set:
+  // seven states an SM at the 128 threads a state of its automatic shape for large launches,
+  // block_shape_for) against the dense one and the compact one with its full working set (four
+  // states an SM), end to end at the anchors' sizes; from 1024 states also the default at 192
+  // and 256 threads a state for every launch (four and three states an SM by its registers),
+  // which chose its shape by the states of a launch
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
-    std::vector<Kernel> builds{default_kernel(), dense(default_kernel()), lean(default_kernel())};
+    std::vector<Kernel> builds{default_kernel(), dense(default_kernel()), full(default_kernel())};
     if (n >= 1024) {
-      builds.push_back(wider(lean(default_kernel()), 192));
-      builds.push_back(wider(lean(default_kernel()), 256));
+      builds.push_back(wider(default_kernel(), 192));
+      builds.push_back(wider(default_kernel(), 256));
     }
     for (const Kernel& kernel : builds) {
       add<float>("cuda_compact", "talos_reduced", n, kernel);

@@ -119,7 +119,8 @@ int main(int argc, char** argv) {
   for (const char* robot : {"iiwa14", "talos_reduced"}) {
     rbdgrad::Model model;
     if (!rbdgrad::load_urdf_string(std::string(rbdgrad::embedded_robot_urdf(robot)), robot, model).is_ok()) return 1;
-    // the default build, then the lean working set (option block_lean)
+    // the block kernel with its full working set, then with the lean one (option block_lean, the
+    // default where the compact kernel is built)
     for (const int build : {0, 1, 2, 3}) {
       const bool single = build % 2 == 0, lean = build >= 2;
       const counting::Counts c = lean ? (single ? count_state<true, true>(model) : count_state<false, true>(model))

@@ -18,14 +18,15 @@ struct BlockShape {
   int states_per_block = 1;
 };
 
-/// The shape a launch of n states uses. An automatic threads_per_state (measured on an H200,
-/// docs/benchmarks/cuda.md): 256 for batches of up to kWideStates, which leave most of the GPU
-/// idle, so that the latency of one state is what counts; for larger ones 8 per joint, rounded up
-/// to a power of two, from 64 to 256 (64 is the fastest for iiwa14 there, 256 for talos_reduced).
-/// The compact kernel's lean working set (`lean`, block_workspace.hpp) takes at most
-/// kLeanThreadsPerState for larger ones: seven talos_reduced states an SM at 72 registers a
-/// thread, where at 256 threads its 80 registers allow three (register_cap.hpp; not yet measured
-/// on a GPU).
+/// The shape a launch of n states uses (n: the states of one launch, a pipelined batch's chunk).
+/// An automatic threads_per_state (measured on an H200, docs/benchmarks/cuda.md): 256 for launches
+/// of up to kWideStates, which leave most of the GPU idle, so that the latency of one state is
+/// what counts; for larger ones 8 per joint, rounded up to a power of two, from 64 to 256 (64 is
+/// the fastest for iiwa14 there, 256 for talos_reduced). The compact kernel's lean working set
+/// (`lean`, block_workspace.hpp) takes at most kLeanThreadsPerState for larger ones: seven
+/// talos_reduced states an SM at 72 registers a thread, where at 256 threads its registers allow
+/// three (register_cap.hpp); on an H200 its kernel at 65536 states 21% faster at 128 than at 256,
+/// at 1024 (eight chunks of 128 states) 22% slower.
 inline constexpr std::size_t kWideStates = 256;
 inline constexpr int kLeanThreadsPerState = 128;
 inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n, bool lean = false) {

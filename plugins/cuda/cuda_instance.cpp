@@ -423,7 +423,9 @@ Status CudaInstance::compute_typed(const rbdgrad_batch& b) {
                              !inputs[4].from && inputs[0].from && inputs[1].from && inputs[2].from &&
                              3 * vec <= kWarpInlineInputBytes;
   const std::size_t inline_block = inline_inputs ? warp_inline_block_bytes(3 * vec, kernel_.warp_inline_min_block) : 0;
-  const BlockShape shape = wide ? block_shape<double, S>(n) : block_shape<S, S>(n);
+  // by the states of one launch: a pipelined batch's chunks of few states each leave the GPU as
+  // idle as a small batch does
+  const BlockShape shape = wide ? block_shape<double, S>(chunk) : block_shape<S, S>(chunk);
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::size_t a = chunk_begin(c), m = chunk_begin(c + 1) - a;
     // one chunk: everything on one stream (fewest calls); several: see the class comment

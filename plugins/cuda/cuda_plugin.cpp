@@ -87,7 +87,8 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // batches computed in f64 on models of up to 16 joints run the warp kernel (default true).
     // block_compact: the block kernel compiled for the robot is the compact one, which fits more
     // states an SM (default true; false: the dense one; cuda_instance.hpp). block_lean: that kernel
-    // with its lean working set (default false: not yet measured; needs block_compact).
+    // with its lean working set (default true where the compact kernel is built; needs
+    // block_compact).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
@@ -106,9 +107,11 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // asked for explicitly only: without specialize the generic kernel runs, and the default is moot
     if (block_compact && !specialize && find_option(options, "block_compact") != nullptr)
       return invalid_argument("option 'block_compact' needs 'specialize' (the compact kernel is compiled for the robot)");
-    bool block_lean = false;
+    // on by default with the compact kernel; asked for explicitly, it needs what it is part of
+    bool block_lean = block_compact;
     if (Status s = option_bool(options, "block_lean", block_lean); !s) return s;
-    if (block_lean && !specialize)
+    const bool lean_asked = find_option(options, "block_lean") != nullptr;
+    if (block_lean && !specialize && lean_asked)
       return invalid_argument(
           "option 'block_lean' needs 'specialize' (the lean working set is compiled for the robot)");
     const char* cache_option = find_option(options, "kernel_cache_dir");

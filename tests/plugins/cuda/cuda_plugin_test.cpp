@@ -126,10 +126,13 @@ TEST(CudaPlugin, OptionsAreChecked) {
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;
     EXPECT_NE(e->message.find("option '" + std::string(name) + "'"), std::string::npos) << e->message;
   }
-  // the compact kernel is the default, which the generic kernels (specialize off) leave aside: no
+  // the compact kernel with its lean working set is the default, which the generic kernels
+  // (specialize off) leave aside, and the dense kernel turns the lean working set off with it: no
   // error of the options, whether or not a GPU is there to create the instance
   for (const auto& options : {std::vector<std::pair<std::string, std::string>>{{"specialize", "false"}},
-                              {{"specialize", "false"}, {"block_compact", "false"}}}) {
+                              {{"specialize", "false"}, {"block_compact", "false"}},
+                              {{"block_compact", "false"}},
+                              {{"block_lean", "false"}, {"specialize", "false"}}}) {
     e.reset();
     create(api(), iiwa().desc(), options, &e);
     if (e) {
