@@ -26,7 +26,7 @@ struct BlockShape {
 /// (`lean`, block_workspace.hpp) takes at most kLeanThreadsPerState for larger ones: seven
 /// talos_reduced states an SM at 72 registers a thread, where at 256 threads its registers allow
 /// three (register_cap.hpp); on an H200 its kernel at 65536 states 21% faster at 128 than at 256,
-/// at 1024 (eight chunks of 128 states) 22% slower.
+/// at 1024 states (eight chunks of 128) 29% slower.
 inline constexpr std::size_t kWideStates = 256;
 inline constexpr int kLeanThreadsPerState = 128;
 inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n, bool lean = false) {

@@ -124,9 +124,9 @@ struct KernelOptions {
   // Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
   // by its lifetime (talos_reduced: 30 KiB a state where the compact kernel takes 55, seven states
   // an SM at 128 threads a state, its automatic shape for large launches: block_shape_for; on an
-  // H200 its kernel 21% faster at 65536 states, end to end as fast or faster at every size
-  // measured, docs/benchmarks/cuda.md). Needs block_compact. Read by specialize(), which builds
-  // the kernel, and by the launches' shape.
+  // H200 its kernel 21% faster at 65536 states, end to end from 0.3% slower to 5% faster at the
+  // sizes measured, docs/benchmarks/cuda.md). Needs block_compact. Read by specialize(), which
+  // builds the kernel, and by the launches' shape.
   bool block_lean = true;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
