@@ -12,7 +12,7 @@
 #   bash build-gpu-bundle/gpu-checks.sh [SANITIZER_TEST_FILTER [BENCHMARK_FILTER]]
 #
 # SANITIZER_TEST_FILTER: a --gtest_filter for plugin_cuda_specialized_kernel_tests under both tools
-# (default: '*Compact*'); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench ('' skips
+# (default: the lean and compact builds' tests); BENCHMARK_FILTER: a --benchmark_filter for cuda_batch_bench ('' skips
 # it; default: the talos_reduced kernels' comparisons and iiwa14's waves, docs/benchmarks/cuda.md).
 # SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
 # the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests daemon
@@ -24,7 +24,7 @@ result=${OUT:-$repo/gpu-checks-out}
 out=$(mktemp -d)
 mkdir -p "$result"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
-sanitize=${1:-'*Compact*'}
+sanitize=${1:-'*LeanKernel*:*CompactKernel*'}
 bench=${2-'cuda_pipeline/1chunks(-dense|-full|-192|-256)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
 failed=0
 step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last lines here
