@@ -1,6 +1,6 @@
 // Tests for chunk_states (plugins/cuda/cuda_instance.cpp): how a large batch is split into the
-// chunks that are pipelined (an upload stream, two compute streams, a download stream), and the
-// options that set the rule.
+// chunks that are pipelined (an upload stream, two compute streams, a download stream), the
+// block kernel's shape a chunk's launch takes, and the kernel options that set them.
 #include <gtest/gtest.h>
 
 #include "cuda_instance.hpp"
@@ -51,6 +51,37 @@ TEST(CudaChunkPlan, SeveralPassesAreSplitAtWholePasses) {
     EXPECT_EQ(chunk % 7552, 0u) << n;
     EXPECT_LE((n + chunk - 1) / chunk, kMaxChunks) << n;
   }
+}
+
+// The block kernel's threads a state follow the states of one launch, a chunk's
+// (cuda_instance.cpp): talos_reduced's lean build (measured on an H200,
+// docs/benchmarks/cuda.md, twenty-fifth session) runs 1024 states in 8 chunks of 128, fewer than
+// one an SM, at 256 threads a state (128 there: 29% slower), and 4096 states in chunks of 512 at
+// 128 (256 there: 11% slower).
+TEST(CudaChunkPlan, ALaunchTakesTheShapeOfItsChunk) {
+  const int talos = 32;
+  const std::size_t at_1024 = chunk_states(1024, 1024, kAutomatic, talos);
+  EXPECT_EQ(at_1024, 128u);
+  EXPECT_EQ(block_shape_for({}, talos, at_1024, true).threads_per_state, 256);
+  const std::size_t at_4096 = chunk_states(4096, 4096, kAutomatic, talos);
+  EXPECT_EQ(at_4096, 512u);
+  EXPECT_EQ(block_shape_for({}, talos, at_4096, true).threads_per_state, 128);
+  EXPECT_EQ(block_shape_for({}, talos, chunk_states(65536, 65536, kAutomatic, talos), true).threads_per_state, 128);
+}
+
+// The defaults: the compact kernel with its lean working set; the lean working set without the
+// compact kernel is refused (the plugin turns it off with block_compact: false unless asked for).
+TEST(CudaChunkPlan, TheLeanCompactKernelIsTheDefault) {
+  KernelOptions options;
+  EXPECT_TRUE(options.block_compact);
+  EXPECT_TRUE(options.block_lean);
+  EXPECT_TRUE(check_kernel_options(options));
+  options.block_compact = false;
+  const Status s = check_kernel_options(options);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message().find("block_lean without block_compact"), std::string::npos) << s.message();
+  options.block_lean = false;
+  EXPECT_TRUE(check_kernel_options(options));
 }
 
 TEST(CudaChunkPlan, OptionsOutsideTheRangeAreRefused) {
