@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <type_traits>
@@ -40,16 +41,16 @@ testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
 
 // warp: the warp kernel's two builds (models of up to kMaxWarpNv joints), else the block kernel's.
 // with_minv: the caller brings M^-1 (a random matrix, its entries between the tree's blocks too),
-// and the outputs are those the block kernel takes with it (no M^-1 out). own_arithmetic: the
-// robot's kernel arranges the arithmetic otherwise (the lean working set): in f32 arithmetic the
-// two kernels' roundings then differ by more than the tolerance on ill-conditioned states (iiwa14:
-// 0.14 apart on an entry of -72.0, where each is within 0.11 of f64), so each state's largest
-// error against the generic kernel in f64 is compared instead: at most twice the generic f32
-// kernel's plus the tolerance.
+// and the outputs are those the block kernel takes with it (no M^-1 out). The instance's other
+// kernel options (the build's shape) stay as they are. Where the robot's kernel arranges the
+// arithmetic otherwise (its lean working set), the two kernels' roundings in f32 arithmetic differ
+// by more than the tolerance on ill-conditioned states (iiwa14: 0.14 apart on an entry of -72.0,
+// where each is within 0.11 of f64), so each state's largest error against the generic kernel in
+// f64 is compared instead: at most twice the generic f32 kernel's plus the tolerance.
 template <class S>
 void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
-                     F32Compute f32_compute = F32Compute::kF32, bool warp = false, bool with_minv = false,
-                     bool own_arithmetic = false) {
+                     F32Compute f32_compute = F32Compute::kF32, bool warp = false, bool with_minv = false) {
+  const bool own_arithmetic = instance.kernel_description().find(", lean working set") != std::string::npos;
   const bool against_f64 = own_arithmetic && std::is_same_v<S, float> && f32_compute == F32Compute::kF32;
   const std::uint32_t precision = std::is_same_v<S, float> ? RBDGRAD_PRECISION_F32 : RBDGRAD_PRECISION_F64;
   // f64: the two builds differ only in constant folding and unrolling, which may contract other
@@ -76,21 +77,22 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
       }
       const std::uint32_t outputs = with_minv ? kGradient & ~RBDGRAD_OUTPUT_MINV : kGradient;
       auto specific = generic;
-      KernelOptions options;
+      KernelOptions options = instance.kernel_options();
       options.f32_compute = f32_compute;
       options.warp_kernel = warp;
       options.robot_specific = false;
       ASSERT_TRUE(instance.set_kernel_options(options));
       // the same states in f64 (against_f64)
-      testing::BatchArrays<double> reference(n, nv);
+      std::optional<testing::BatchArrays<double>> reference;
       if (against_f64) {
+        reference.emplace(n, nv);
         for (std::size_t e = 0; e < generic.q.size(); ++e) {
-          reference.q[e] = generic.q[e];
-          reference.qd[e] = generic.qd[e];
-          reference.u[e] = generic.u[e];
+          reference->q[e] = generic.q[e];
+          reference->qd[e] = generic.qd[e];
+          reference->u[e] = generic.u[e];
         }
-        for (std::size_t e = 0; e < generic.minv.size(); ++e) reference.minv[e] = generic.minv[e];
-        rbdgrad_batch r = reference.batch(RBDGRAD_PRECISION_F64, input, outputs, with_minv, false);
+        for (std::size_t e = 0; e < generic.minv.size(); ++e) reference->minv[e] = generic.minv[e];
+        rbdgrad_batch r = reference->batch(RBDGRAD_PRECISION_F64, input, outputs, with_minv, false);
         ASSERT_TRUE(instance.compute(&r)) << where << ", in f64";
       }
       rbdgrad_batch b = generic.batch(precision, input, outputs, with_minv, false);
@@ -124,7 +126,7 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
               ASSERT_NEAR(got[e], want[e], tolerance * scale) << where << ", output " << flag << " element " << e;
               continue;
             }
-            const double exact = reference.out(flag)[e];
+            const double exact = reference->out(flag)[e];
             error_generic = std::max(error_generic, std::abs(double(want[e]) - exact));
             error_specific = std::max(error_specific, std::abs(double(got[e]) - exact));
           }
@@ -182,12 +184,11 @@ TEST(CudaRobotSpecificKernel, WarpKernelMatchesTheGenericOneOnEveryRobot) {
 
 // The block kernels compared in f64, f32 and (where the GPU does) f32 computed in f64, with M^-1
 // computed and brought by the caller.
-void compare_block_kernels(CudaInstance& instance, const std::string& robot, int nv, bool own_arithmetic = false) {
+void compare_block_kernels(CudaInstance& instance, const std::string& robot, int nv) {
   for (const bool with_minv : {false, true}) {
-    compare_kernels<double>(instance, robot, nv, F32Compute::kF32, false, with_minv, own_arithmetic);
-    compare_kernels<float>(instance, robot, nv, F32Compute::kF32, false, with_minv, own_arithmetic);
-    if (instance.f32_in_f64())
-      compare_kernels<float>(instance, robot, nv, F32Compute::kF64, false, with_minv, own_arithmetic);
+    compare_kernels<double>(instance, robot, nv, F32Compute::kF32, false, with_minv);
+    compare_kernels<float>(instance, robot, nv, F32Compute::kF32, false, with_minv);
+    if (instance.f32_in_f64()) compare_kernels<float>(instance, robot, nv, F32Compute::kF64, false, with_minv);
   }
 }
 
@@ -217,7 +218,7 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
       EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
       std::printf("%s (%d threads a state, 0 automatic): %s\n", name, build.threads_per_state, description.c_str());
-      compare_block_kernels(*instance, name, model.nv, build.lean);
+      compare_block_kernels(*instance, name, model.nv);
     }
   }
 }
