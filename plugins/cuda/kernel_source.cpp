@@ -1,6 +1,7 @@
 #include "kernel_source.hpp"
 
 #include <cstdio>
+#include <cstdlib>
 
 #include "device/warp_kernel_entry.hpp"
 #include "flat_model.hpp"
@@ -35,9 +36,14 @@ std::string comment_safe(std::string name) {
 }
 
 // the generic kernel's settings (plugins/cuda/CMakeLists.txt): C++17, IEEE arithmetic (no
-// fast-math: is_finite and the accuracy bounds rely on it), contraction into FMAs as nvcc does
+// fast-math: is_finite and the accuracy bounds rely on it), contraction into FMAs as nvcc does.
+// RBDGRAD_CUDA_LINEINFO=1 adds the source lines for a profiler (the code stays the same; the
+// options are part of the kernel cache's key, so such a build is cached apart).
 std::vector<std::string> compile_options(int arch) {
-  return {"-std=c++17", "--gpu-architecture=sm_" + std::to_string(arch), "--fmad=true"};
+  std::vector<std::string> options{"-std=c++17", "--gpu-architecture=sm_" + std::to_string(arch), "--fmad=true"};
+  if (const char* lineinfo = std::getenv("RBDGRAD_CUDA_LINEINFO"); lineinfo != nullptr && std::string(lineinfo) == "1")
+    options.push_back("-lineinfo");
+  return options;
 }
 
 // an unsigned long long template argument in C++ source

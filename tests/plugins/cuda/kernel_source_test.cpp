@@ -9,6 +9,7 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -111,6 +112,22 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   Model odd = model;
   odd.name = "evil\n#error injected";
   EXPECT_THAT(cuda::block_kernel_program(odd, cuda::KernelScalars::kF64, 90).source, ::testing::Not(HasSubstr("\n#error")));
+}
+
+// RBDGRAD_CUDA_LINEINFO=1 (for a profiler by source line) adds -lineinfo to both kernels' options,
+// which the kernel cache keys on; any other value adds nothing
+TEST(KernelSource, LineInfoOnlyWhenAsked) {
+  const Model model = load_embedded("iiwa14");
+  const char* before = std::getenv("RBDGRAD_CUDA_LINEINFO");
+  const std::string saved = before ? before : "";
+  ::setenv("RBDGRAD_CUDA_LINEINFO", "0", 1);
+  EXPECT_THAT(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90).options,
+              ::testing::Not(::testing::Contains("-lineinfo")));
+  ::setenv("RBDGRAD_CUDA_LINEINFO", "1", 1);
+  EXPECT_THAT(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90).options, ::testing::Contains("-lineinfo"));
+  EXPECT_THAT(cuda::warp_kernel_program(model, true, 90).options, ::testing::Contains("-lineinfo"));
+  if (before) ::setenv("RBDGRAD_CUDA_LINEINFO", saved.c_str(), 1);
+  else ::unsetenv("RBDGRAD_CUDA_LINEINFO");
 }
 
 // The warp kernel's program: the robot's sizes and tree fixed (parent + 1 and subtree end - 1, 4
