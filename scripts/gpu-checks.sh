@@ -16,7 +16,11 @@
 # it; default: the talos_reduced kernels' comparisons and iiwa14's waves, docs/benchmarks/cuda.md).
 # SANITIZER_OPTIONS: more options for compute-sanitizer, e.g. '--launch-count 100' to check only
 # the first 100 kernel launches (the rest run unchecked, at speed). STEPS: which of "tests daemon
-# sanitizers bench revs" to run (default all), so that a run can fit the device tool's 10 minutes.
+# sanitizers bench revs" to run (default all), so that a run can fit the device tool's 10 minutes;
+# "profile" (only when named) runs Nsight Compute (--set full) on one launch of the kernels named
+# by PROFILE_KERNEL (default the block kernel) in the benchmark PROFILE_BENCH, its NVRTC programs
+# built with source lines (RBDGRAD_CUDA_LINEINFO): its details and per-source-line pages as text
+# in the logs, the report itself beside gpu-checks.tgz (profile.ncu-rep, if it fits the tool).
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -135,5 +139,17 @@ for old in "$here"/bin/cuda_batch_bench-*; do
   step "bench-after-$rev" "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 \
     --benchmark_filter="$kernel_alone" --benchmark_out="$out/bench-after-$rev.json" --benchmark_out_format=json
 done
+if [[ $steps == *" profile "* ]]; then
+  ncu=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
+  profile_bench=${PROFILE_BENCH:-cuda_pipeline/1chunks/pinned/f64/talos_reduced/N65536/}
+  # the launch after the benchmark's first (which sizes the buffers); the embedded headers' names
+  # found under the source tree's device folder
+  RBDGRAD_CUDA_LINEINFO=1 step profile "$ncu" --set full --import-source yes \
+    --source-folders "$repo/plugins/cuda/device" -k "regex:${PROFILE_KERNEL:-block_fused}" --launch-skip 1 \
+    --launch-count 1 -f -o "$result/profile" "$here/bin/cuda_batch_bench" --benchmark_min_time=0.01 \
+    --benchmark_filter="$profile_bench"
+  step profile-details "$ncu" -i "$result/profile.ncu-rep" --page details --print-units base
+  step profile-source "$ncu" -i "$result/profile.ncu-rep" --page source --csv --print-source cuda,sass
+fi
 tar czf "$result/gpu-checks.tgz" -C "$out" .
 exit "$failed"
