@@ -112,6 +112,24 @@ RBDGRAD_HD auto divider_for(int n) {
   else return Divider(n);
 }
 
+// How far the segments of row m of a block of `size` columns (row-major, `size` apart) are turned
+// so that a wavefront's lanes, on consecutive rows and the same column offset, meet different
+// banks. A wavefront spans the banks once (16 doubles, 32 floats: L scalars); rows `size` apart
+// repeat their bank every P = L / gcd(size, L) rows, so that L rows in a row put g = gcd(size, L)
+// rows on each bank: those are turned 0, 1, ..., g - 1 columns apart (as many as the segments
+// allow, the segments being a multiple of g: talos_reduced's torso, g = 4, at 4 or 8 a row).
+template <class S>
+RBDGRAD_HD int bank_skew(int m, int size) {
+  constexpr int kLog2Lanes = sizeof(S) == 8 ? 4 : 5;  // a wavefront's scalars: 128 bytes
+#if defined(__CUDA_ARCH__)
+  const int zeros = __ffs(size) - 1;
+#else
+  const int zeros = __builtin_ctz(static_cast<unsigned>(size));
+#endif
+  const int log2_g = zeros < kLog2Lanes ? zeros : kLog2Lanes;
+  return (m >> (kLog2Lanes - log2_g)) & ((1 << log2_g) - 1);
+}
+
 // Components of the spatial cross products, the operands read in place (element e of x at
 // x[e * stride]): one component per thread, and no local array indexed at run time.
 template <class S>
@@ -605,7 +623,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // joint from its end as pivot), and the entries between blocks stay zero. The steps' pivot rows
   // and columns are kept aside (snapshots, taken in the step before) so that every entry is
   // updated in place with one sync a step. A thread takes a segment of one row: the row's block
-  // bounds and the pivot's reciprocal once for its entries.
+  // bounds and the pivot's reciprocal once for its entries. The lanes of a warp take consecutive
+  // rows, whose entries in one column are a block's size apart: where that size shares factors
+  // with the banks a wavefront spans, the rows' segments start at columns skewed by the row
+  // (block::bank_skew), so that the lanes hit different banks.
   // The pivots are kept (in B, free since the subtree sums; lean: their own); the thread that meets
   // one that is not positive flags it (group_max: the core's order checks the last joint first),
   // and the state's status is set once at the end, so that no serial check sits on the steps'
@@ -640,6 +661,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
     g.sync();
     const int segments = g.size > n ? g.size / n : 1;  // threads a row
+    const block::Divider by_segments(segments);
     for (int step = 0; step < steps; ++step) {
       const S* const row = snapshot_row + (step & 1) * n;
       const S* const col = snapshot_col + (step & 1) * n;
@@ -650,7 +672,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         if (pv < first) return;  // the block's steps are done
         const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
         S* const Ai = inverse + row_at(i);
-        for (int j = first + by_n.quotient(t); j < end; j += segments) {
+        // this thread's columns: those whose offset from the block's first is its segment, skewed,
+        // modulo segments (rows are the block's size apart where packed, else n)
+        const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
+        const int segment = by_segments.remainder(by_n.quotient(t) + skew);
+        for (int j = first + segment; j < end; j += segments) {
           const S a_pj = row[j];
           S x;
           if (i == pv && j == pv) {
