@@ -676,20 +676,15 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         // modulo segments (rows are the block's size apart where packed, else n)
         const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
         const int segment = by_segments.remainder(by_n.quotient(t) + skew);
+        // the pivot's own thread keeps it and flags it (outside the loop: its entries' values by
+        // selects, without branches)
+        if (i == pv && by_segments.remainder(pv - first) == segment) {
+          pivots[pv] = pivot;
+          if (!(is_finite(pivot) && pivot > S(0))) group_max(w.failed_pivot, static_cast<std::uint32_t>(pv) + 1u);
+        }
         for (int j = first + segment; j < end; j += segments) {
-          const S a_pj = row[j];
-          S x;
-          if (i == pv && j == pv) {
-            pivots[pv] = pivot;
-            if (!(is_finite(pivot) && pivot > S(0))) group_max(w.failed_pivot, static_cast<std::uint32_t>(pv) + 1u);
-            x = r;
-          } else if (i == pv) {
-            x = -a_pj * r;
-          } else if (j == pv) {
-            x = a_ip * r;
-          } else {
-            x = Ai[j] - a_ip * r * a_pj;
-          }
+          const S a_pj = row[j], exchanged = Ai[j] - a_ip * r * a_pj;
+          const S x = i == pv ? (j == pv ? r : -a_pj * r) : (j == pv ? a_ip * r : exchanged);
           Ai[j] = x;
           if (i == pv - 1) next_row[j] = x;
           if (j == pv - 1) next_col[i] = x;

@@ -402,6 +402,11 @@ TEST(BlockStateOnHost, ZeroMassFailsWithTheCoresReason) {
         run_block_on_host<double, cuda::ModelView<double>, cuda::block_stages::kPerBatch, true, true>(model, lean, c, true,
                                                                                                     false);
     EXPECT_EQ(status, lean_status) << robot << ": the lean working set's statuses";
+    // as 128 threads (row segments: the pivot's thread among a row's flags it)
+    CudaBatch<double> lean_segments(states, model.nv, true);
+    EXPECT_EQ(status, (run_block_on_host<double, cuda::ModelView<double>, cuda::block_stages::kPerBatch, true, true>(
+                          model, lean_segments, c, true, true, 128)))
+        << robot << ": the lean working set's statuses as 128 threads";
     const cuda::FlatModel<double> flat(model);
     std::vector<double> scratch(cuda::WorkspaceView<double>::scalars(model.nv), 0.0);
     const cuda::WorkspaceView<double> ws(scratch.data(), 0, 1, model.nv);
