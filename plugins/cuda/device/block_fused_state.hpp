@@ -115,9 +115,9 @@ RBDGRAD_HD auto divider_for(int n) {
 // How far the segments of row m of a block of `size` columns (row-major, `size` apart) are turned
 // so that a wavefront's lanes, on consecutive rows and the same column offset, meet different
 // banks. A wavefront spans the banks once (16 doubles, 32 floats: L scalars); rows `size` apart
-// repeat their bank every P = L / gcd(size, L) rows, so that L rows in a row put g = gcd(size, L)
-// rows on each bank: those are turned 0, 1, ..., g - 1 columns apart (as many as the segments
-// allow, the segments being a multiple of g: talos_reduced's torso, g = 4, at 4 or 8 a row).
+// repeat their bank every P = L / gcd(size, L) rows, so that L consecutive rows put g =
+// gcd(size, L) of them on each bank: those are turned 0, 1, ..., g - 1 columns apart (distinct
+// where the segments a row are a multiple of g: talos_reduced's torso, g = 4, at 4 or 8 a row).
 template <class S>
 RBDGRAD_HD int bank_skew(int m, int size) {
   constexpr int kLog2Lanes = sizeof(S) == 8 ? 4 : 5;  // a wavefront's scalars: 128 bytes
