@@ -3,7 +3,7 @@
 # CUDA 13 and its tools, not the project's Debian libraries): a portable Release build for sm_90,
 # its CUDA test and benchmark programs, the daemon and the CLI, the plugin, the shared libraries
 # they load beyond the C and C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them
-# there. Builds in
+# there, its programs stripped of symbols (the device tool carries 64 MiB with the working tree). Builds in
 # build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the second).
 # Each REV given adds that commit's cuda_batch_bench (bin/cuda_batch_bench-REV, built from a
 # worktree in build-cuda/), which gpu-checks.sh times against this one's default kernel.
@@ -47,4 +47,13 @@ sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$build/CMakeCache.txt" >"$bundle/
 echo "$PWD/$build/plugins/cuda/librbdgrad_cuda.so" >"$bundle/plugin_path"
 git rev-parse --short HEAD >"$bundle/commit"
 git diff --quiet HEAD || echo "(with uncommitted changes)" >>"$bundle/commit"
+# the device tool carries at most 64 MiB with the working tree: symbols off the programs (what
+# runs is the same), and a warning where the two still exceed it (fewer REVs then)
+strip --strip-unneeded "$bundle"/bin/* "$bundle/lib/librbdgrad_cuda.so"
+bundle_bytes=$(du -sb "$bundle" | cut -f1)
+tree_bytes=$(git ls-files -z -co --exclude-standard | du -cb --files0-from=- 2>/dev/null | tail -n 1 | cut -f1)
 du -sh "$bundle"
+if ((bundle_bytes + tree_bytes > 64 * 1024 * 1024)); then
+  echo "warning: the bundle ($bundle_bytes bytes) and the working tree ($tree_bytes) exceed the device tool's" \
+    "64 MiB; bundle fewer REVs" >&2
+fi
