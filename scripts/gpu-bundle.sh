@@ -3,8 +3,9 @@
 # CUDA 13 and its tools, not the project's Debian libraries): a portable Release build for sm_90,
 # its CUDA test and benchmark programs, the daemon and the CLI, the plugin, the shared libraries
 # they load beyond the C and C++ runtimes and CUDA's, and scripts/gpu-checks.sh, which runs them
-# there, its programs stripped of symbols (the device tool carries 64 MiB with the working tree). Builds in
-# build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the second).
+# there; the programs stripped of symbols (the device tool carries 64 MiB with the working tree).
+# Builds in build-cuda/portable and writes build-gpu-bundle/ (both ignored by git; carry the
+# second).
 # Each REV given adds that commit's cuda_batch_bench (bin/cuda_batch_bench-REV, built from a
 # worktree in build-cuda/), which gpu-checks.sh times against this one's default kernel.
 #
