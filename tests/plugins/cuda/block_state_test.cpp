@@ -206,6 +206,71 @@ TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
   check_fixed_sizes<double, 32, 10>("talos_reduced");
 }
 
+// The lean kernel's inversion by the packed matrices' entries (block_entry_inversion.hpp), the
+// roots' blocks fixed as the kernel compiled for the robot fixes them: the same bits as the row
+// segments, in order and in reverse as 128 threads (how the device hands out a step's entries).
+template <class S, int NV, int LEVELS, int MATRIX, unsigned long long BLOCKS>
+void check_entry_inversion(const std::string& robot) {
+  const Model model = robot_model(robot);
+  const cuda::FlatModel<S> flat(model);
+  ASSERT_EQ(flat.matrix_scalars, MATRIX) << robot;
+  // the constant from the model's roots (level 1) and their subtrees, as kernel_source.cpp packs it
+  std::vector<int> roots, sizes;
+  for (int k = flat.ints[5 * NV]; k < flat.ints[5 * NV + 1]; ++k) {
+    roots.push_back(flat.ints[4 * NV + k]);
+    sizes.push_back(model.subtree_end[static_cast<std::size_t>(roots.back())] - roots.back());
+  }
+  ASSERT_EQ(cuda::pack_root_blocks(roots.data(), sizes.data(), static_cast<int>(roots.size())), BLOCKS) << robot;
+  using Rows = cuda::FixedSizeModelView<S, NV, LEVELS, MATRIX>;
+  using Entries = cuda::FixedSizeModelView<S, NV, LEVELS, MATRIX, BLOCKS>;
+  constexpr int kPerBatch = cuda::block_stages::kPerBatch;
+  const std::vector<StateInputs> states = random_inputs(model, 8, 13);
+  for (const bool tau_input : {true, false}) {
+    for (const OutputCase& c : kBlockCases) {
+      const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
+      CudaBatch<S> rows(states, model.nv, tau_input), entries(states, model.nv, tau_input),
+          reversed(states, model.nv, tau_input);
+      rows.poison();
+      entries.poison();
+      reversed.poison();
+      const auto s1 = run_block_on_host<S, Rows, kPerBatch, true, true>(model, rows, c, tau_input, false);
+      const auto s2 = run_block_on_host<S, Entries, kPerBatch, true, true>(model, entries, c, tau_input, false);
+      const auto s3 = run_block_on_host<S, Entries, kPerBatch, true, true>(model, reversed, c, tau_input, true, 128);
+      ASSERT_EQ(s1, s2) << where;
+      ASSERT_EQ(s1, s3) << where << ", reversed";
+      ASSERT_TRUE(same_outputs(rows, entries)) << where << ": the inversion by entries";
+      ASSERT_TRUE(same_outputs(rows, reversed)) << where << ": the inversion by entries, in reverse as 128 threads";
+    }
+  }
+}
+
+TEST(BlockStateOnHost, InversionByEntriesGivesTheSameBits) {
+  // talos_reduced: legs at 0 and 6 (6 joints), the torso at 12 (20); hyq: four legs of 3
+  check_entry_inversion<double, 32, 10, 472, 0x14cc11461140ull>("talos_reduced");
+  check_entry_inversion<float, 32, 10, 472, 0x14cc11461140ull>("talos_reduced");
+  check_entry_inversion<double, 12, 3, 36, 0x1089108610831080ull>("hyq");
+  check_entry_inversion<double, 7, 7, 49, 0x1180ull>("iiwa14");
+}
+
+// The inversion by entries flags a pivot that is not positive as the row segments do: the same
+// statuses for talos_reduced with a massless leaf (ZeroMassFailsWithTheCoresReason below)
+TEST(BlockStateOnHost, InversionByEntriesFlagsTheSamePivot) {
+  Model model = robot_model("talos_reduced");
+  model.mass[31] = 0;
+  model.inertia_com[31].setZero();
+  const std::vector<StateInputs> states = random_inputs(robot_model("talos_reduced"), 2, 3);
+  const OutputCase& c = kBlockCases[0];
+  constexpr int kPerBatch = cuda::block_stages::kPerBatch;
+  CudaBatch<double> rows(states, model.nv, true), entries(states, model.nv, true);
+  const auto s1 = run_block_on_host<double, cuda::FixedSizeModelView<double, 32, 10, 472>, kPerBatch, true, true>(
+      model, rows, c, true, true, 128);
+  const auto s2 =
+      run_block_on_host<double, cuda::FixedSizeModelView<double, 32, 10, 472, 0x14cc11461140ull>, kPerBatch, true, true>(
+          model, entries, c, true, true, 128);
+  for (const std::uint32_t s : s1) EXPECT_EQ(cuda::status_reason(s), cuda::Reason::kMassNotPositive);
+  EXPECT_EQ(s1, s2);
+}
+
 // The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's
 // root is a root and holds the joint in its subtree, and the roots' subtrees cover the joints in
 // order. The humanoid's fixed base splits it into its two legs and its torso with arms and head.
