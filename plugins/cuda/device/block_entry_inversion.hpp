@@ -12,7 +12,6 @@
 
 #include "block_workspace.hpp"
 #include "model_view.hpp"
-#include "state_status.hpp"
 #include "thread_group.hpp"
 
 namespace rbdgrad::cuda {
