@@ -53,7 +53,8 @@ struct ModelView {
 // inversion by entries (block_entry_inversion.hpp): up to kMaxPackedRootBlocks blocks in root order,
 // 16 bits each, its root in bits 0-5, its size - 1 in bits 6-11 and bit 12 set; 0: not packed
 // (more blocks, or not asked). The packed matrices hold the blocks one after the other.
-inline constexpr int kMaxPackedRootBlocks = 4;
+// (an enumerator: NVRTC emits an inline constexpr variable as a global, used or not)
+enum : int { kMaxPackedRootBlocks = 4 };
 RBDGRAD_HD constexpr unsigned long long pack_root_blocks(const int* roots, const int* sizes, int count) {
   if (count < 1 || count > kMaxPackedRootBlocks) return 0;
   unsigned long long packed = 0;
