@@ -34,8 +34,9 @@ Status compact_register_cap(const Model& model, bool lean, const BlockShape& sha
 }  // namespace
 
 Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    bool lean, bool entry_inversion, const BlockShape& shape, int device, std::size_t max_shared_bytes,
-                                    const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
+                                    bool lean, bool entry_inversion, const BlockShape& shape, int device,
+                                    std::size_t max_shared_bytes, const std::string& cache_dir,
+                                    std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
