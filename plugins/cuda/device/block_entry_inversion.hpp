@@ -11,6 +11,7 @@
 #pragma once
 
 #include "block_workspace.hpp"
+#include "exchange_step.hpp"
 #include "model_view.hpp"
 #include "thread_group.hpp"
 
@@ -53,13 +54,8 @@ RBDGRAD_HD void block_invert_by_entries(const BlockWorkspace<S>& w, int n, S* sn
       const int r = static_cast<int>((static_cast<float>(local) + 0.5f) * inverse_size);
       const int i = root + r, j = root + (local - r * size), pv = root + size - 1 - step;
       const S a_pj = row[j], a_ip = col[i], reciprocal = reciprocals[pv];
-      const S exchanged = inverse[e] - a_ip * reciprocal * a_pj;
-      const S x = i == pv ? (j == pv ? reciprocal : -a_pj * reciprocal) : (j == pv ? a_ip * reciprocal : exchanged);
-      if (i == pv && j == pv) {
-        const S pivot = row[pv];
-        w.pivots[pv] = pivot;
-        if (!(is_finite(pivot) && pivot > S(0))) group_max(w.failed_pivot, static_cast<std::uint32_t>(pv) + 1u);
-      }
+      const S x = exchanged_entry(i, j, pv, inverse[e], a_ip, a_pj, reciprocal);
+      if (i == pv && j == pv) keep_pivot(w.pivots, w.failed_pivot, pv, row[pv]);
       inverse[e] = x;
       if (i == pv - 1) next_row[j] = x;
       if (j == pv - 1) {

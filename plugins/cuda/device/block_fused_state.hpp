@@ -23,6 +23,7 @@
 #include "block_articulated_body.hpp"
 #include "block_entry_inversion.hpp"
 #include "block_stages.hpp"
+#include "exchange_step.hpp"
 #include "fused_state.hpp"
 
 namespace rbdgrad::cuda {
@@ -657,7 +658,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const int last = block_end(t) - 1;
       snapshot_row[t] = w.M[row_at(last) + t];
       snapshot_col[t] = w.M[row_at(t) + last];
-      if (kEntryInversion && t == last) w.pivot_reciprocals[t] = S(1) / w.M[row_at(last) + t];
+      if (kEntryInversion && t == last) w.pivot_reciprocals[t] = S(1) / snapshot_row[t];
     });
     int steps = 0;
     for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
@@ -688,13 +689,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           const int segment = by_segments.remainder(by_n.quotient(t) + skew);
           // the pivot's own thread keeps it and flags it (outside the loop: its entries' values
           // by selects, without branches)
-          if (i == pv && by_segments.remainder(pv - first) == segment) {
-            pivots[pv] = pivot;
-            if (!(is_finite(pivot) && pivot > S(0))) group_max(w.failed_pivot, static_cast<std::uint32_t>(pv) + 1u);
-          }
+          if (i == pv && by_segments.remainder(pv - first) == segment) keep_pivot(pivots, w.failed_pivot, pv, pivot);
           for (int j = first + segment; j < end; j += segments) {
-            const S a_pj = row[j], exchanged = Ai[j] - a_ip * r * a_pj;
-            const S x = i == pv ? (j == pv ? r : -a_pj * r) : (j == pv ? a_ip * r : exchanged);
+            const S a_pj = row[j];
+            const S x = exchanged_entry(i, j, pv, Ai[j], a_ip, a_pj, r);
             Ai[j] = x;
             if (i == pv - 1) next_row[j] = x;
             if (j == pv - 1) next_col[i] = x;
