@@ -139,17 +139,27 @@ RBDGRAD_HD S cross3_at(const S* a, int sa, const S* b, int sb, int r) {
   const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
   return a[r1 * sa] * b[r2 * sb] - a[r2 * sa] * b[r1 * sb];
 }
+// The three below (and inertia_parameters.hpp's row products) compute both halves' terms and
+// select: a warp's lanes take consecutive components of a few bodies, so that a branch on c < 3
+// ran both paths one after the other with half the lanes idle. The selected value is the one the
+// branch computed, the same operations in the same order.
 // (m1 x m2)_c
 template <class S>
 RBDGRAD_HD S cross_motion_at(const S* m1, int s1, const S* m2, int s2, int c) {
-  if (c < 3) return cross3_at(m1, s1, m2, s2, c);
-  return cross3_at(m1, s1, m2 + 3 * s2, s2, c - 3) + cross3_at(m1 + 3 * s1, s1, m2, s2, c - 3);
+  const bool angular = c < 3;
+  const int r = angular ? c : c - 3;
+  const S first = cross3_at(m1, s1, angular ? m2 : m2 + 3 * s2, s2, r);
+  const S second = cross3_at(m1 + 3 * s1, s1, m2, s2, r);
+  return angular ? first : first + second;
 }
 // (m x* f)_c
 template <class S>
 RBDGRAD_HD S cross_force_at(const S* m, int sm, const S* f, int sf, int c) {
-  if (c < 3) return cross3_at(m, sm, f, sf, c) + cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, c);
-  return cross3_at(m, sm, f + 3 * sf, sf, c - 3);
+  const bool angular = c < 3;
+  const int r = angular ? c : c - 3;
+  const S first = cross3_at(m, sm, angular ? f : f + 3 * sf, sf, r);
+  const S second = cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, r);
+  return angular ? first + second : first;
 }
 // (m x* A(:, k))_c of a symmetric A (its upper triangle at A), as cross_force_at on a column
 template <class S>
@@ -159,8 +169,10 @@ RBDGRAD_HD S cross_force_column_at(const S* m, const S* A, int k, int c) {
     const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
     return m[mo + r1] * col(fo + r2) - m[mo + r2] * col(fo + r1);
   };
-  if (c < 3) return cross3(0, 0, c) + cross3(3, 3, c);
-  return cross3(0, 3, c - 3);
+  const bool angular = c < 3;
+  const int r = angular ? c : c - 3;
+  const S first = cross3(0, angular ? 0 : 3, r), second = cross3(3, 3, r);
+  return angular ? first + second : first;
 }
 // skew(x)(row, col)
 template <class S>

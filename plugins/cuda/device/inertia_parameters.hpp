@@ -15,30 +15,36 @@ namespace rbdgrad::cuda {
 // the same parameter of consecutive bodies hit different shared-memory banks. (An enumerator: NVRTC
 // emits an inline constexpr variable as a global, even in kernels that do not use it.)
 enum : int { kInertiaParameterStride = 9 };
-// where J(r, c) (r, c < 3) sits among a body's parameters: after h, its upper triangle row by row
+// Where J(r, c) (r, c < 3) sits among a body's parameters: after h, its upper triangle row by row
+// (3 + 0 1 2 / 1 3 4 / 2 4 5). By a table of 3-bit fields, field 3 r + c: the products take r at
+// run time, and the table is a shift and a mask where the triangle's arithmetic took about six
+// instructions an index.
+enum : unsigned {
+  kInertiaJIndexTable = 0u | 1u << 3 | 2u << 6 | 1u << 9 | 3u << 12 | 4u << 15 | 2u << 18 | 4u << 21 | 5u << 24
+};
 RBDGRAD_HD constexpr int inertia_j_index(int r, int c) {
-  return r <= c ? 3 + r * 3 - r * (r - 1) / 2 + (c - r) : 3 + c * 3 - c * (c - 1) / 2 + (r - c);
+  return 3 + static_cast<int>((kInertiaJIndexTable >> (3 * (3 * r + c))) & 7u);
 }
 
 namespace block {
 
 // (P x)_c of the inertia whose parameters are body i's of `base` and whose mass is `mass`
-// (kWithMass; a rate's mass is zero, and its product skips the term)
+// (kWithMass; a rate's mass is zero, and its product skips the term). Both halves' terms and a
+// select, as block_fused_state.hpp's cross products: J w + h x v_o for c < 3, m v_o - h x w for
+// c = 3 + r (row r of J read there too, and not used).
 template <bool kWithMass, class S>
 RBDGRAD_HD S parameter_row_dot(const S* base, int i, int c, const S* x, S mass) {
   const S* P = base + kInertiaParameterStride * i;
   const S* h = P;
-  if (c < 3) {
-    // J w + h x v_o
-    const int c1 = c == 2 ? 0 : c + 1, c2 = c == 0 ? 2 : c - 1;
-    return P[inertia_j_index(c, 0)] * x[0] + P[inertia_j_index(c, 1)] * x[1] + P[inertia_j_index(c, 2)] * x[2] +
-           (h[c1] * x[3 + c2] - h[c2] * x[3 + c1]);
-  }
-  // m v_o - h x w
-  const int r = c - 3, r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
-  const S cross = h[r2] * x[r1] - h[r1] * x[r2];
-  if constexpr (kWithMass) return mass * x[c] + cross;
-  else return cross;
+  const bool angular = c < 3;
+  const int r = angular ? c : c - 3, r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+  // the cross product's term: h[r1] x_o[r2] - h[r2] x_o[r1] (J w + h x v_o), else h[r2] w[r1] -
+  // h[r1] w[r2] (- h x w)
+  const S cross = h[angular ? r1 : r2] * x[angular ? 3 + r2 : r1] - h[angular ? r2 : r1] * x[angular ? 3 + r1 : r2];
+  const S moment =
+      P[inertia_j_index(r, 0)] * x[0] + P[inertia_j_index(r, 1)] * x[1] + P[inertia_j_index(r, 2)] * x[2] + cross;
+  if constexpr (kWithMass) return angular ? moment : mass * x[c] + cross;
+  else return angular ? moment : cross;
 }
 template <class S>
 RBDGRAD_HD S inertia_row_dot(const S* base, int i, int c, const S* x, S mass) {

@@ -65,6 +65,15 @@ TEST(InertiaParameters, IndexTheUpperTriangleAfterTheFirstMoment) {
   EXPECT_EQ(cuda::inertia_j_index(1, 1), 6);
   EXPECT_EQ(cuda::inertia_j_index(2, 1), 7);
   EXPECT_EQ(cuda::inertia_j_index(2, 2), 8);
+  // every entry: the upper triangle row by row at 3..8, the lower one its mirror
+  int next = 3;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      if (c >= r) {
+        EXPECT_EQ(cuda::inertia_j_index(r, c), next++) << r << ", " << c;
+      }
+      EXPECT_EQ(cuda::inertia_j_index(r, c), cuda::inertia_j_index(c, r)) << r << ", " << c;
+    }
 }
 
 TEST(InertiaParameters, ProductsMatchTheSpatialInertiaMatrix) {
