@@ -701,14 +701,23 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           const int segment = by_segments.remainder(by_n.quotient(t) + skew);
           // the pivot's own thread keeps it and flags it (outside the loop: its entries' values
           // by selects, without branches)
-          if (i == pv && by_segments.remainder(pv - first) == segment) keep_pivot(pivots, w.failed_pivot, pv, pivot);
+          const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
+          if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
+          // every entry as off the pivot's column (exchange_step.hpp), that one put right after
+          // the loop, and the next step's pivot column read back after it: no compares and
+          // selects an entry
+          const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
           for (int j = first + segment; j < end; j += segments) {
-            const S a_pj = row[j];
-            const S x = exchanged_entry(i, j, pv, Ai[j], a_ip, a_pj, r);
+            const S x = factors.u * row[j] + factors.s * Ai[j];
             Ai[j] = x;
             if (i == pv - 1) next_row[j] = x;
-            if (j == pv - 1) next_col[i] = x;
           }
+          if (holds(pv)) {
+            const S x = pivot_column_entry(i, pv, a_ip, r);
+            Ai[pv] = x;
+            if (i == pv - 1) next_row[pv] = x;
+          }
+          if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
         });
         g.sync();
       }

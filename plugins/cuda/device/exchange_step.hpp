@@ -8,12 +8,30 @@
 
 namespace rbdgrad::cuda {
 
-// Entry (i, j) after the step on pivot pv: a_ij its value before, a_ip and a_pj the pivot
-// column's and row's entries (the step's snapshots), r the pivot's reciprocal.
+// Row i's factors in an exchange step on pivot pv: entry (i, j), j != pv, becomes u a_pj + s a_ij
+// (a_ip and a_pj the pivot column's and row's entries, the step's snapshots, r the pivot's
+// reciprocal): a_ij - (a_ip r) a_pj off the pivot row, -r a_pj on it (s = 0). One form for every
+// row, so that a row's entries take a multiply and an add each and no selects; the pivot's column
+// is the exception (pivot_column_entry).
+template <class S>
+struct ExchangeRow {
+  S u, s;
+};
+template <class S>
+RBDGRAD_HD ExchangeRow<S> exchange_row(int i, int pv, S a_ip, S r) {
+  return i == pv ? ExchangeRow<S>{-r, S(0)} : ExchangeRow<S>{-(a_ip * r), S(1)};
+}
+// entry (i, pv) after the step: r on the pivot, a_ip r above and below it
+template <class S>
+RBDGRAD_HD S pivot_column_entry(int i, int pv, S a_ip, S r) {
+  return i == pv ? r : a_ip * r;
+}
+// Entry (i, j) after the step (i, j and pv at run time; a_ij its value before).
 template <class S>
 RBDGRAD_HD S exchanged_entry(int i, int j, int pv, S a_ij, S a_ip, S a_pj, S r) {
-  const S exchanged = a_ij - a_ip * r * a_pj;
-  return i == pv ? (j == pv ? r : -a_pj * r) : (j == pv ? a_ip * r : exchanged);
+  const ExchangeRow<S> row = exchange_row(i, pv, a_ip, r);
+  const S x = row.u * a_pj + row.s * a_ij;
+  return j == pv ? pivot_column_entry(i, pv, a_ip, r) : x;
 }
 
 // Keeps the pivot of joint pv and flags it in *failed when it is not positive (group_max: the
