@@ -100,8 +100,8 @@ struct Backend {
   std::mutex mutex;  // benchmark threads create their own instances
 
   // build: the options that take effect when the kernels are compiled (block_compact, block_lean,
-  // block_entry_inversion, and the block shape, which sets the compact kernel's register cap): an
-  // instance of its own for each
+  // and the block shape, which sets the compact kernel's register cap): an instance of its own for
+  // each
   rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0,
                                         const rbdgrad::cuda::KernelOptions& build = {}) {
     std::lock_guard<std::mutex> lock(mutex);
@@ -109,7 +109,6 @@ struct Backend {
     std::string key = robot + "#" + std::to_string(copy);
     if (!build.block_compact) key += "#dense";
     if (build.block_lean) key += "#lean";
-    if (build.block_entry_inversion) key += "#entries";
     // two appends: GCC 12 warns falsely (-Wrestrict) on "#" + std::to_string(...)
     key += '#';
     key += std::to_string(build.block_shape.threads_per_state);
@@ -122,7 +121,6 @@ struct Backend {
       rbdgrad::cuda::KernelOptions options;
       options.block_compact = build.block_compact;
       options.block_lean = build.block_lean;
-      options.block_entry_inversion = build.block_entry_inversion;
       options.block_shape = build.block_shape;
       (void)slot->set_kernel_options(options);
       // as the plugin does by default: the block and warp kernels compiled for the robot (the
@@ -228,13 +226,6 @@ Kernel dense(Kernel k) {
 Kernel full(Kernel k) {
   k.name += "-full";
   k.options.block_lean = false;
-  return k;
-}
-// `k` with the lean kernel's inversion by entries (KernelOptions::block_entry_inversion, not yet
-// a plugin option)
-Kernel entries(Kernel k) {
-  k.name += "-entries";
-  k.options.block_entry_inversion = true;
   return k;
 }
 // the defaults with the warp kernel's first outputs written early (before d tau/d q) or late
@@ -419,9 +410,9 @@ const bool registered = [] {
         // and the dense block kernel, three states an SM (one block of 256 threads a state), the
         // compact one with its full working set, four, and the default (its lean working set,
         // seven states an SM at its automatic 128 threads a state) at 192 threads a state (four,
-        // by its registers) and at 256 (three), and with its inversion by entries
+        // by its registers) and at 256 (three)
         for (const Kernel& k : {dense(pipeline(chunks)), full(pipeline(chunks)), wider(pipeline(chunks), 192),
-                                wider(pipeline(chunks), 256), entries(pipeline(chunks))}) {
+                                wider(pipeline(chunks), 256)}) {
           add<float>("cuda_pipeline", robot, n, k);
           add<double>("cuda_pipeline", robot, n, k);
         }
@@ -431,11 +422,9 @@ const bool registered = [] {
   // block_shape_for) against the dense one and the compact one with its full working set (four
   // states an SM), end to end at the anchors' sizes; from 1024 states also the default at 192
   // and 256 threads a state for every launch (four and three states an SM by its registers),
-  // which chose its shape by the states of a launch; and the default with its inversion by
-  // entries
+  // which chose its shape by the states of a launch
   for (std::size_t n : {16, 32, 64, 128, 256, 1024, 4096, 16384, 65536}) {
-    std::vector<Kernel> builds{default_kernel(), dense(default_kernel()), full(default_kernel()),
-                               entries(default_kernel())};
+    std::vector<Kernel> builds{default_kernel(), dense(default_kernel()), full(default_kernel())};
     if (n >= 1024) {
       builds.push_back(wider(default_kernel(), 192));
       builds.push_back(wider(default_kernel(), 256));

@@ -171,8 +171,6 @@ Status check_kernel_options(const KernelOptions& options) {
   const BlockShape b = block_shape_for(options.block_shape, kMaxNv, 1);
   if (options.block_lean && !options.block_compact)
     return invalid_argument("block_lean without block_compact: the lean working set is the compact kernel's");
-  if (options.block_entry_inversion && !options.block_lean)
-    return invalid_argument("block_entry_inversion without block_lean: the inversion by entries is the lean kernel's");
   if (b.threads_per_state < 1 || b.states_per_block < 1 || b.threads_per_state * b.states_per_block > 1024)
     return invalid_argument("block shape " + std::to_string(b.threads_per_state) + " threads per state x " +
                             std::to_string(b.states_per_block) + " states per block: a block holds 1 to 1024 threads");
@@ -290,8 +288,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     k.reset();
     const Status s =
         SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact, kernel_.block_lean,
-                                     kernel_.block_entry_inversion, kernel_.block_shape, device_, max_shared_bytes_,
-                                     cache_dir, k);
+                                     kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
@@ -302,7 +299,6 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     const BlockBuild& build = k->build();
     if (build.compact) parts += ", compact";
     if (build.lean) parts += ", lean working set";
-    if (build.entry_inversion) parts += ", inversion by entries";
     if (build.register_cap > 0) parts += ", at most " + std::to_string(build.register_cap) + " registers a thread";
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64

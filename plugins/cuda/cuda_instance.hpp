@@ -128,11 +128,6 @@ struct KernelOptions {
   // sizes measured, docs/benchmarks/cuda.md). Needs block_compact. Read by specialize(), which
   // builds the kernel, and by the launches' shape.
   bool block_lean = true;
-  // the lean kernel's inversion of M by the packed matrices' entries, its roots' blocks compiled
-  // in (device/block_entry_inversion.hpp): no bank conflicts and no lanes idle on finished rows;
-  // not yet measured on a GPU, so off (a benchmark's variant, no plugin option yet). Needs
-  // block_lean. Read by specialize().
-  bool block_entry_inversion = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;
@@ -146,7 +141,7 @@ struct KernelOptions {
 };
 
 /// Errors: invalid_argument (a block of more than 1024 threads, or none; chunks.max_chunks outside
-/// 1 to kMaxChunks; block_lean without block_compact; block_entry_inversion without block_lean).
+/// 1 to kMaxChunks; block_lean without block_compact).
 Status check_kernel_options(const KernelOptions& options);
 
 /// States per chunk of a batch of `n` states whose kernel has `slots` resident thread slots (the

@@ -25,20 +25,13 @@ std::string block_stages_text(int stages);
 
 /// How the block kernel for a robot is built: compact (block_kernel_entry.hpp: the robot's scalar
 /// constants in device memory, the matrices packed by the roots' blocks), a cap on its registers a
-/// thread (register_cap.hpp; 0: none), lean: the compact kernel's lean working set
-/// (block_workspace.hpp; ignored without compact), and entry_inversion: the lean kernel's
-/// inversion of M by the packed matrices' entries (device/block_entry_inversion.hpp; ignored
-/// without lean, or where the robot has more roots than a kernel can fix, kMaxPackedRootBlocks).
+/// thread (register_cap.hpp; 0: none), and lean: the compact kernel's lean working set
+/// (block_workspace.hpp; ignored without compact).
 struct BlockBuild {
   bool compact = false;
   int register_cap = 0;
   bool lean = false;
-  bool entry_inversion = false;
 };
-
-/// The roots' blocks of `model` packed as FixedSizeModelView's ROOT_BLOCKS (pack_root_blocks; 0
-/// where it has more than kMaxPackedRootBlocks roots).
-unsigned long long root_blocks_constant(const Model& model);
 
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for
 /// compute capability 9.0); `stages` a scene's fixed block_stages, or kPerBatch.

@@ -34,16 +34,14 @@ Status compact_register_cap(const Model& model, bool lean, const BlockShape& sha
 }  // namespace
 
 Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    bool lean, bool entry_inversion, const BlockShape& shape, int device,
-                                    std::size_t max_shared_bytes, const std::string& cache_dir,
-                                    std::unique_ptr<SpecializedBlockKernel>& out) {
+                                    bool lean, const BlockShape& shape, int device, std::size_t max_shared_bytes,
+                                    const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
   k->build_.compact = compact;
   k->build_.lean = compact && lean;
-  k->build_.entry_inversion = k->build_.lean && entry_inversion && root_blocks_constant(model) != 0;
   if (compact && scalars != KernelScalars::kF32)
     if (Status s = compact_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,

@@ -22,15 +22,14 @@ class SpecializedBlockKernel {
   /// Builds the kernel of `model` in `scalars` with `stages` (block_stages: a scene's, or
   /// kPerBatch) for `device` (current), its shared memory allowed up to `max_shared_bytes`.
   /// compact: the compact kernel (block_kernel_entry.hpp), lean: with its lean working set
-  /// (block_workspace.hpp; ignored without compact), entry_inversion: the lean kernel's inversion
-  /// by entries (BlockBuild; ignored without lean), its registers capped for blocks of
+  /// (block_workspace.hpp; ignored without compact), its registers capped for blocks of
   /// `shape` (the instance's, resolved for a large batch) where it computes in f64
   /// (register_cap.hpp; the f32 arithmetic's articulated-body pass spills at 64 registers).
   /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
   /// or loading failed: the message says which).
   static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, bool lean,
-                     bool entry_inversion, const BlockShape& shape, int device, std::size_t max_shared_bytes,
-                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
+                     const BlockShape& shape, int device, std::size_t max_shared_bytes, const std::string& cache_dir,
+                     std::unique_ptr<SpecializedBlockKernel>& out);
 
   /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
   /// cudaErrorInvalidValue).

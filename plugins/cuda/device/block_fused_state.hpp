@@ -21,7 +21,6 @@
 #pragma once
 
 #include "block_articulated_body.hpp"
-#include "block_entry_inversion.hpp"
 #include "block_stages.hpp"
 #include "exchange_step.hpp"
 #include "fused_state.hpp"
@@ -260,10 +259,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
   // (lean) or the 36 of the matrix
   constexpr int kBodyEntries = kLean ? kInertiaParameterStride : 36;
-  // M^-1's steps by the packed matrices' entries (block_entry_inversion.hpp) where the model type
-  // fixes the roots' blocks (the lean build compiled for the robot with that option), else by row
-  // segments
-  constexpr bool kEntryInversion = kPacked && kLean && FixedSizes<Model>::root_blocks != 0;
 
   if (g.rank == 0) *w.failed_pivot = *w.not_finite = 0;
   // the joint transforms in the parent frames
@@ -670,7 +665,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const int last = block_end(t) - 1;
       snapshot_row[t] = w.M[row_at(last) + t];
       snapshot_col[t] = w.M[row_at(t) + last];
-      if (kEntryInversion && t == last) w.pivot_reciprocals[t] = S(1) / snapshot_row[t];
     });
     int steps = 0;
     for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
@@ -679,48 +673,43 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       if (size > steps) steps = size;
     }
     g.sync();
-    if constexpr (kEntryInversion) {
-      block_invert_by_entries<S, FixedSizes<Model>::root_blocks, FixedSizes<Model>::matrix_scalars>(
-          w, n, snapshot_row, snapshot_col, steps, g);
-    } else {
-      const int segments = g.size > n ? g.size / n : 1;  // threads a row
-      const block::Divider by_segments(segments);
-      for (int step = 0; step < steps; ++step) {
-        const S* const row = snapshot_row + (step & 1) * n;
-        const S* const col = snapshot_col + (step & 1) * n;
-        S* const next_row = snapshot_row + ((step + 1) & 1) * n;
-        S* const next_col = snapshot_col + ((step + 1) & 1) * n;
-        g.for_each(n * segments, [&](int t) {
-          const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
-          if (pv < first) return;  // the block's steps are done
-          const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
-          S* const Ai = inverse + row_at(i);
-          // this thread's columns: those whose offset from the block's first is its segment,
-          // skewed, modulo segments (rows are the block's size apart where packed, else n)
-          const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
-          const int segment = by_segments.remainder(by_n.quotient(t) + skew);
-          // the pivot's own thread keeps it and flags it (outside the loop: its entries' values
-          // by selects, without branches)
-          const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
-          if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
-          // every entry as off the pivot's column (exchange_step.hpp), that one put right after
-          // the loop, and the next step's pivot column read back after it: no compares and
-          // selects an entry
-          const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
-          for (int j = first + segment; j < end; j += segments) {
-            const S x = factors.u * row[j] + factors.s * Ai[j];
-            Ai[j] = x;
-            if (i == pv - 1) next_row[j] = x;
-          }
-          if (holds(pv)) {
-            const S x = pivot_column_entry(i, pv, a_ip, r);
-            Ai[pv] = x;
-            if (i == pv - 1) next_row[pv] = x;
-          }
-          if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
-        });
-        g.sync();
-      }
+    const int segments = g.size > n ? g.size / n : 1;  // threads a row
+    const block::Divider by_segments(segments);
+    for (int step = 0; step < steps; ++step) {
+      const S* const row = snapshot_row + (step & 1) * n;
+      const S* const col = snapshot_col + (step & 1) * n;
+      S* const next_row = snapshot_row + ((step + 1) & 1) * n;
+      S* const next_col = snapshot_col + ((step + 1) & 1) * n;
+      g.for_each(n * segments, [&](int t) {
+        const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
+        if (pv < first) return;  // the block's steps are done
+        const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
+        S* const Ai = inverse + row_at(i);
+        // this thread's columns: those whose offset from the block's first is its segment,
+        // skewed, modulo segments (rows are the block's size apart where packed, else n)
+        const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
+        const int segment = by_segments.remainder(by_n.quotient(t) + skew);
+        // the pivot's own thread keeps it and flags it (outside the loop: its entries' values
+        // by selects, without branches)
+        const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
+        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
+        // every entry as off the pivot's column (exchange_step.hpp), that one put right after
+        // the loop, and the next step's pivot column read back after it: no compares and
+        // selects an entry
+        const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
+        for (int j = first + segment; j < end; j += segments) {
+          const S x = factors.u * row[j] + factors.s * Ai[j];
+          Ai[j] = x;
+          if (i == pv - 1) next_row[j] = x;
+        }
+        if (holds(pv)) {
+          const S x = pivot_column_entry(i, pv, a_ip, r);
+          Ai[pv] = x;
+          if (i == pv - 1) next_row[pv] = x;
+        }
+        if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
+      });
+      g.sync();
     }
   }
   // the columns of M^-1 that row i of a product with it needs: row i's block, or every column

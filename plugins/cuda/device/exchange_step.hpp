@@ -1,6 +1,6 @@
-// One entry of an exchange (Gauss-Jordan) step of the block kernel's inversion of M, in place
-// (block_fused_state.hpp's row segments and block_entry_inversion.hpp's entries): one arithmetic
-// for both, so that they give the same bits.
+// The arithmetic of an exchange (Gauss-Jordan) step of the block kernel's inversion of M, in
+// place, by row segments (block_fused_state.hpp): a row's factors, the pivot column's entries and
+// the pivot kept and checked.
 #pragma once
 
 #include "spatial.hpp"
@@ -25,13 +25,6 @@ RBDGRAD_HD ExchangeRow<S> exchange_row(int i, int pv, S a_ip, S r) {
 template <class S>
 RBDGRAD_HD S pivot_column_entry(int i, int pv, S a_ip, S r) {
   return i == pv ? r : a_ip * r;
-}
-// Entry (i, j) after the step (i, j and pv at run time; a_ij its value before).
-template <class S>
-RBDGRAD_HD S exchanged_entry(int i, int j, int pv, S a_ij, S a_ip, S a_pj, S r) {
-  const ExchangeRow<S> row = exchange_row(i, pv, a_ip, r);
-  const S x = row.u * a_pj + row.s * a_ij;
-  return j == pv ? pivot_column_entry(i, pv, a_ip, r) : x;
 }
 
 // Keeps the pivot of joint pv and flags it in *failed when it is not positive (group_max: the

@@ -49,53 +49,20 @@ struct ModelView {
   }
 };
 
-// The roots' blocks of M (ModelView::root_of) as one compile-time constant, for the block kernel's
-// inversion by entries (block_entry_inversion.hpp): up to kMaxPackedRootBlocks blocks in root order,
-// 16 bits each, its root in bits 0-5, its size - 1 in bits 6-11 and bit 12 set; 0: not packed
-// (more blocks, or not asked). The packed matrices hold the blocks one after the other.
-// (an enumerator: NVRTC emits an inline constexpr variable as a global, used or not)
-enum : int { kMaxPackedRootBlocks = 4 };
-RBDGRAD_HD constexpr unsigned long long pack_root_blocks(const int* roots, const int* sizes, int count) {
-  if (count < 1 || count > kMaxPackedRootBlocks) return 0;
-  unsigned long long packed = 0;
-  for (int b = 0; b < count; ++b) {
-    if (roots[b] < 0 || roots[b] > 63 || sizes[b] < 1 || sizes[b] > 64) return 0;
-    packed |= static_cast<unsigned long long>(roots[b] | (sizes[b] - 1) << 6 | 1 << 12) << (16 * b);
-  }
-  return packed;
-}
-template <unsigned long long BLOCKS>
-struct RootBlocks {
-  static RBDGRAD_HD constexpr int field(int b) { return static_cast<int>(BLOCKS >> (16 * b) & 0xffffu); }
-  static RBDGRAD_HD constexpr int count_blocks() {
-    int c = 0;
-    while (c < kMaxPackedRootBlocks && (field(c) & 1 << 12) != 0) ++c;
-    return c;
-  }
-  static constexpr int count = count_blocks();
-  static RBDGRAD_HD constexpr int root(int b) { return field(b) & 63; }
-  static RBDGRAD_HD constexpr int size(int b) { return (field(b) >> 6 & 63) + 1; }
-  // where block b's entries start in the packed matrices
-  static RBDGRAD_HD constexpr int offset(int b) { return b == 0 ? 0 : offset(b - 1) + size(b - 1) * size(b - 1); }
-};
-
 // A ModelView whose sizes are compile-time constants: the block kernel compiled for one robot when
 // its model is loaded (kernel_source.cpp) sees nv and the tree's depth as constants, so that its
 // loops over joints have fixed trip counts and its index arithmetic divides by constants; the
 // lean build sees the packed matrices' size too (MATRIX_SCALARS, 0: the view's, at run time), so
 // that its working set's arrays all sit at constant offsets (ptxas: no spills at 72 registers for
-// talos_reduced, where the run-time size spills 8 bytes), and may see the roots' blocks
-// (ROOT_BLOCKS, pack_root_blocks; 0: none), for the inversion by entries. The arrays are the
-// same as the view's. Code that takes a ModelView<S>& sees the run-time sizes, which are equal.
-template <class S, int NV, int LEVELS, int MATRIX_SCALARS = 0, unsigned long long ROOT_BLOCKS = 0>
+// talos_reduced, where the run-time size spills 8 bytes). The arrays are the same as the view's.
+// Code that takes a ModelView<S>& sees the run-time sizes, which are equal.
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS = 0>
 struct FixedSizeModelView : ModelView<S> {
   static_assert(NV >= 1 && LEVELS >= 1 && LEVELS <= NV, "a tree of NV joints is 1 to NV levels deep");
   static_assert(MATRIX_SCALARS >= 0 && MATRIX_SCALARS <= NV * NV, "the packed matrices are at most nv x nv");
-  static_assert(ROOT_BLOCKS == 0 || MATRIX_SCALARS > 0, "the roots' blocks with the packed matrices' size");
   static constexpr int nv = NV;
   static constexpr int levels = LEVELS;
   static constexpr int matrix_scalars = MATRIX_SCALARS;
-  static constexpr unsigned long long root_blocks = ROOT_BLOCKS;
   RBDGRAD_HD explicit FixedSizeModelView(const ModelView<S>& view) : ModelView<S>(view) {}
 };
 
@@ -124,17 +91,15 @@ struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
   RBDGRAD_HD explicit FixedTreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS>(view) {}
 };
 
-// The number of joints, the tree depth, the packed matrices' size and the roots' blocks a model
-// type fixes at compile time, 0 for run-time sizes.
+// The number of joints, the tree depth and the packed matrices' size a model type fixes at compile
+// time, 0 for run-time sizes.
 template <class Model>
 struct FixedSizes {
   static constexpr int nv = 0, levels = 0, matrix_scalars = 0;
-  static constexpr unsigned long long root_blocks = 0;
 };
-template <class S, int NV, int LEVELS, int MATRIX_SCALARS, unsigned long long ROOT_BLOCKS>
-struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS, ROOT_BLOCKS>> {
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS>
+struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>> {
   static constexpr int nv = NV, levels = LEVELS, matrix_scalars = MATRIX_SCALARS;
-  static constexpr unsigned long long root_blocks = ROOT_BLOCKS;
 };
 template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long E>
 struct FixedSizes<FixedTreeModelView<S, NV, LEVELS, P, E>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};

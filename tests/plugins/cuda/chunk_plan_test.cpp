@@ -82,15 +82,6 @@ TEST(CudaChunkPlan, TheLeanCompactKernelIsTheDefault) {
   EXPECT_NE(s.message().find("block_lean without block_compact"), std::string::npos) << s.message();
   options.block_lean = false;
   EXPECT_TRUE(check_kernel_options(options));
-  // the inversion by entries: off by default (not yet measured), the lean kernel's only
-  options = KernelOptions{};
-  EXPECT_FALSE(options.block_entry_inversion);
-  options.block_entry_inversion = true;
-  EXPECT_TRUE(check_kernel_options(options));
-  options.block_lean = false;
-  const Status entries = check_kernel_options(options);
-  ASSERT_FALSE(entries);
-  EXPECT_NE(entries.message().find("block_entry_inversion without block_lean"), std::string::npos) << entries.message();
 }
 
 TEST(CudaChunkPlan, OptionsOutsideTheRangeAreRefused) {

@@ -262,33 +262,6 @@ TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithoutSpills) {
   expect_talos_build_holds_its_cap({true, 72, true}, "lean", "lean working set");
 }
 
-// The lean kernel with its inversion by entries (device/block_entry_inversion.hpp): the roots'
-// blocks in the model type (talos_reduced: legs at 0 and 6, 6 joints each, the torso at 12, 20;
-// iiwa14: one block), at the lean kernel's cap without spills; nothing without lean, and nothing
-// for a robot of more roots than a kernel fixes.
-TEST(KernelSource, LeanTalosKernelByEntriesHoldsItsRegisterCapWithoutSpills) {
-  EXPECT_EQ(cuda::root_blocks_constant(load_embedded("talos_reduced")), 0x14cc11461140ull);
-  EXPECT_EQ(cuda::root_blocks_constant(load_embedded("iiwa14")), 0x1180ull);
-  const Model model = load_embedded("talos_reduced");
-  const cuda::NvrtcProgram p =
-      cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, 72, true, true});
-  EXPECT_EQ(p.name_expressions.at(0),
-            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 32, 10, 472, "
-            "0x14cc11461140ull>, double, -1, true, true>");
-  EXPECT_EQ(p.name, "block_kernel_talos_f64_compact_lean_entries.cu");
-  EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch,
-                                       {true, 72, false, true})
-                .name_expressions.at(0),
-            cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, 72})
-                .name_expressions.at(0));
-  // five roots: more than a kernel fixes
-  const int roots[5] = {0, 1, 2, 3, 4}, sizes[5] = {1, 1, 1, 1, 1};
-  EXPECT_EQ(cuda::pack_root_blocks(roots, sizes, 5), 0u);
-  EXPECT_EQ(cuda::pack_root_blocks(roots, sizes, 4), 0x1003100210011000ull);
-  SKIP_WITHOUT_NVRTC();
-  expect_talos_build_holds_its_cap({true, 72, true, true}, "lean by entries", "its inversion by entries");
-}
-
 // A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.
 TEST(KernelSource, SceneStagesCompileToLessCode) {
   SKIP_WITHOUT_NVRTC();

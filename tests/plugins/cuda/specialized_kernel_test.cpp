@@ -198,7 +198,6 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
 struct BlockBuildCase {
   bool compact, lean;
   int threads_per_state;  // 0: the automatic shape (block_shape_for)
-  bool entries = false;   // the lean kernel's inversion by entries (KernelOptions::block_entry_inversion)
 };
 void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase> builds) {
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
@@ -210,7 +209,6 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       options.block_compact = build.compact;
       options.block_lean = build.lean;
       options.block_shape.threads_per_state = build.threads_per_state;
-      options.block_entry_inversion = build.entries;
       ASSERT_TRUE(instance->set_kernel_options(options));
       if (Status s = instance->specialize(""); !s) {
         if (s.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no NVRTC: " << s.message();
@@ -219,8 +217,6 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       const std::string description = instance->kernel_description();
       EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
       EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
-      EXPECT_EQ(description.find(", inversion by entries") != std::string::npos, build.entries)
-          << name << ": " << description;
       std::printf("%s (%d threads a state, 0 automatic): %s\n", name, build.threads_per_state, description.c_str());
       compare_block_kernels(*instance, name, model.nv);
     }
@@ -234,13 +230,6 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
 // in chunks, and talos_reduced's 1000 states in chunks of at most 256) and at 256.
 TEST(CudaRobotSpecificKernel, LeanKernelMatchesTheGenericOne) {
   expect_builds_match_the_generic_kernel({{true, true, 128}, {true, true, 0}, {true, true, 256}});
-}
-
-// The lean build with its inversion of M by the packed matrices' entries
-// (KernelOptions::block_entry_inversion, device/block_entry_inversion.hpp), at 128 threads a state
-// and at 256.
-TEST(CudaRobotSpecificKernel, LeanKernelByEntriesMatchesTheGenericOne) {
-  expect_builds_match_the_generic_kernel({{true, true, 128, true}, {true, true, 256, true}});
 }
 
 // The compact build with its full working set (block_lean: false).
