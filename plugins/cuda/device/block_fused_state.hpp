@@ -689,8 +689,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         // skewed, modulo segments (rows are the block's size apart where packed, else n)
         const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
         const int segment = by_segments.remainder(by_n.quotient(t) + skew);
-        // the pivot's own thread keeps it and flags it (outside the loop: its entries' values
-        // by selects, without branches)
+        // the pivot's own thread keeps it and flags it, outside the loop
         const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
         if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
         // every entry as off the pivot's column (exchange_step.hpp), that one put right after
