@@ -689,12 +689,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         // skewed, modulo segments (rows are the block's size apart where packed, else n)
         const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
         const int segment = by_segments.remainder(by_n.quotient(t) + skew);
-        // the segments of the pivot's column and of the next step's (the one before it, cyclic)
-        const int pivot_segment = by_segments.remainder(pv - first);
-        const bool holds_pivot = pivot_segment == segment;
-        const bool holds_next = pv - 1 >= first && (pivot_segment == 0 ? segments : pivot_segment) - 1 == segment;
         // the pivot's own thread keeps it and flags it, outside the loop
-        if (i == pv && holds_pivot) keep_pivot(pivots, w.failed_pivot, pv, pivot);
+        const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
+        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
         // every entry as off the pivot's column (exchange_step.hpp), that one put right after
         // the loop, and the next step's pivot column read back after it: no compares and
         // selects an entry
@@ -704,12 +701,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           Ai[j] = x;
           if (i == pv - 1) next_row[j] = x;
         }
-        if (holds_pivot) {
+        if (holds(pv)) {
           const S x = pivot_column_entry(i, pv, a_ip, r);
           Ai[pv] = x;
           if (i == pv - 1) next_row[pv] = x;
         }
-        if (holds_next) next_col[i] = Ai[pv - 1];
+        if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
       });
       g.sync();
     }
