@@ -657,9 +657,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     // ranges are disjoint), two of each so that a step writes the next one's
     S* const snapshot_row = kLean ? w.snapshots : w.B + n;
     S* const snapshot_col = kLean ? w.snapshots + 2 * n : w.B + 3 * n;
-    // each pivot's reciprocal, computed once by the thread that writes the pivot in the step
-    // before (the first pivots' by the snapshots' pass), where every row's thread took it each step
-    S* const reciprocals = snapshot_row + 4 * n;
     g.for_each(n + dqd_fill_items, [&](int t) {
       if (t >= n) {
         fill_dtau_dqd(t - n);
@@ -668,7 +665,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const int last = block_end(t) - 1;
       snapshot_row[t] = w.M[row_at(last) + t];
       snapshot_col[t] = w.M[row_at(t) + last];
-      if (t == last) reciprocals[t] = S(1) / snapshot_row[t];
     });
     int steps = 0;
     for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
@@ -687,7 +683,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       g.for_each(n * segments, [&](int t) {
         const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
         if (pv < first) return;  // the block's steps are done
-        const S r = reciprocals[pv], a_ip = col[i];
+        const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
         S* const Ai = inverse + row_at(i);
         // this thread's columns: those whose offset from the block's first is its segment,
         // skewed, modulo segments (rows are the block's size apart where packed, else n)
@@ -695,7 +691,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         const int segment = by_segments.remainder(by_n.quotient(t) + skew);
         // the pivot's own thread keeps it and flags it, outside the loop
         const auto holds = [&](int j) { return by_segments.remainder(j - first) == segment; };
-        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, row[pv]);
+        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
         // every entry as off the pivot's column (exchange_step.hpp), that one put right after
         // the loop, and the next step's pivot column read back after it: no compares and
         // selects an entry
@@ -710,11 +706,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           Ai[pv] = x;
           if (i == pv - 1) next_row[pv] = x;
         }
-        if (pv - 1 >= first && holds(pv - 1)) {
-          const S x = Ai[pv - 1];
-          next_col[i] = x;
-          if (i == pv - 1) reciprocals[pv - 1] = S(1) / x;  // the next step's pivot
-        }
+        if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
       });
       g.sync();
     }

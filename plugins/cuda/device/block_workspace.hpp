@@ -57,8 +57,7 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
 // of d tau/d qd (12) until d tau/d q is written (17):
 //   q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in hc; f_ext (3..7)
 //   in Bc_sym; h (5..8) in Ic S; f (7..8) in Bc^T S; in T: R (2..3) at 0 and p (2..4) at 9, then
-//   B_sym (7..8), then E (9..11), c (9..12), the inversion's snapshots (11) and its pivots'
-//   reciprocals (11, at 11 n), then beta (14..17)
+//   B_sym (7..8), then E (9..11), c (9..12) and the inversion's snapshots (11), then beta (14..17)
 //   at 0 and Dq (16..17) at 6; in the matrix a_qdd (13..14) and F_total (15..16) at 0 and f_qdd
 //   (14..15) at 6 n. T takes 12 scalars a joint; where the matrix has fewer than 12 n scalars
 //   (a tree of fewer than 12 joints, or of small blocks) those three go to T too, 18 a joint:
@@ -85,8 +84,7 @@ struct BlockWorkspace {
   // nv x nv row-major, or packed by the roots' blocks (the compact kernel): M (M^-1 after the
   // inversion, in place, or the caller's, always dense); d tau/d qd, then d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
-  // the inversion's pivots (nv), and its snapshots of pivot rows and columns (4 nv), followed by
-  // its pivots' reciprocals (nv)
+  // the inversion's pivots (nv), and its snapshots of pivot rows and columns (4 nv)
   S *pivots, *snapshots;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
@@ -96,9 +94,8 @@ struct BlockWorkspace {
   // when an output is not finite
   std::uint32_t *failed_pivot, *not_finite;
 
-  // the default layout: the scalars before the d/dq stage's vectors in B (pivots, snapshots and
-  // the pivots' reciprocals)
-  static constexpr int kInversionScalarsPerJoint = 6;
+  // the default layout: the scalars before the d/dq stage's vectors in B (pivots and snapshots)
+  static constexpr int kInversionScalarsPerJoint = 5;
   static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
   // (enumerators, not static members: NVRTC would emit those as unused globals)
   enum : int {
