@@ -627,83 +627,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   };
   const int dqd_fill_items = want_dqd ? n * n : 0;
 
-  // Without the M^-1 output, M^-1 itself is never formed: M = L^T D L is factorized in place
-  // (the core's factorize_mass_matrix: leaves first, L(k, i) nonzero only for i an ancestor of k,
-  // D^-1 kept on L's diagonal) and each column of d tau/d u, and tau - c for qdd, is solved with
-  // the factors. A column's solve is one thread's, O(nnz(L)), with no syncs; the lanes of a warp
-  // take consecutive columns (consecutive addresses in d tau/d u's rows) and read the same L.
-  // Where the batch asks for M^-1 (or brings it) the exchange steps below form it and the products
-  // use it.
-  // (re-read where used: a value of the kernel's parameters costs no register held across passes)
-  const auto factor_solve = [&] { return !minv_supplied && (b.outputs & kOutputMinv) == 0; };
-  const auto L = [&](int r, int c) -> S& { return inverse[row_at(r) + c]; };
-  // row i's part of step `step` of the factorization: each block's (step + 1)-th joint from its
-  // end, k, eliminated from its ancestors, whose rows i update L(i, j) for their
-  // ancestors-or-self j (the rows of a step are disjoint, and read only row k). Row k itself is
-  // finished (divided by its pivot d, 1/d on its diagonal, the pivot kept and checked) in the
-  // step after, by its own thread, when no thread reads it any more; a root's row (no ancestors)
-  // in its own step.
-  auto factor_row = [&](int i, int step) {
-    const int first = block_begin(i), end = block_end(i), k = end - 1 - step;
-    // (the loops go over the block's columns with the ancestor test, not up the parent chain: a
-    // chain of dependent loads, which measured 38% slower in all)
-    S* const Li = &L(i, 0);
-    if (step > 0 && i == k + 1 && m.parent[i] >= 0) {
-      const S d = Li[i];
-      keep_pivot(pivots, w.failed_pivot, i, d);
-      for (int j = first; j < i; ++j)
-        if (m.contains(j, i)) Li[j] = Li[j] / d;
-      Li[i] = S(1) / d;
-    } else if (i == k && m.parent[i] < 0) {
-      const S d = Li[i];
-      keep_pivot(pivots, w.failed_pivot, i, d);
-      Li[i] = S(1) / d;
-    } else if (i < k && m.contains(i, k)) {
-      // j <= i on k's ancestor chain: j is an ancestor-or-self of i
-      const S* const Lk = &L(k, 0);
-      const S a = Lk[i] / Lk[k];
-      for (int j = first; j <= i; ++j)
-        if (m.contains(j, k)) Li[j] -= a * Lk[j];
-    }
-  };
-  // M x = b by the factors, in place, for b on the rows [first, end) of one block, entry i at
-  // b[(i - first) * bs]; where `emit`, each entry of -x written as it is final (root first), row i
-  // to out[at + i nv]. L(k, i) is at L0[(k - first) * ls + i]: the block's rows are ls apart.
-  // Both halves pull (an entry's sum over the others, whose loads do not wait on each other), none
-  // pushes: a push stores into entries that the next iteration loads.
-  auto solve_block = [&](S* bv, int bs, int first, int end, bool emit, IO* out, std::uint64_t at) {
-    const int ls = kPacked ? end - first : n;
-    const S* const L0 = inverse + row_at(first);
-    // L^T z = b, leaves first: z_i = b_i - sum over i's subtree of L(k, i) z_k, two chains
-    for (int i = end - 1; i >= first; --i) {
-      S s0 = bv[(i - first) * bs], s1 = S(0);
-      int k = m.subtree_end[i] - 1;
-      for (; k > i + 1; k -= 2) {
-        s0 -= L0[(k - first) * ls + i] * bv[(k - first) * bs];
-        s1 -= L0[(k - 1 - first) * ls + i] * bv[(k - 1 - first) * bs];
-      }
-      if (k > i) s0 -= L0[(k - first) * ls + i] * bv[(k - first) * bs];
-      bv[(i - first) * bs] = s0 + s1;
-    }
-    // L x = D^-1 z, root first: x_i = z_i / d_i - sum over i's ancestors k of L(i, k) x_k
-    for (int i = first; i < end; ++i) {
-      const S* const Li = L0 + (i - first) * ls;
-      S s = bv[(i - first) * bs] * Li[i];
-      for (int k = first; k < i; ++k)
-        if (m.contains(k, i)) s -= Li[k] * bv[(k - first) * bs];
-      bv[(i - first) * bs] = s;
-      if (emit) write(-s, out, at + static_cast<std::uint64_t>(i) * vec);
-    }
-  };
-  // -M^-1 times column j of d tau/d u (in place) into out's column j, zero outside j's block
-  auto minus_solve_column = [&](S* dtau, int j, IO* out) {
-    const int first = block_begin(j), end = block_end(j), ls = kPacked ? end - first : n;
-    const std::uint64_t at = state * mat + static_cast<std::uint64_t>(j);
-    for (int i = 0; i < first; ++i) write(-S(0), out, at + static_cast<std::uint64_t>(i) * vec);
-    solve_block(dtau + row_at(first) + j, ls, first, end, true, out, at);
-    for (int i = end; i < n; ++i) write(-S(0), out, at + static_cast<std::uint64_t>(i) * vec);
-  };
-
   // M^-1 by exchange (Gauss-Jordan) steps, in place in M. The pivots go leaves first, as the
   // core's factorization M = L^T D L does: the pivot of joint k is then D[k] (the Schur complement
   // of the joints after it), so a state fails at the same joint for the same reason
@@ -721,35 +644,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // one that is not positive flags it (group_max: the core's order checks the last joint first),
   // and the state's status is set once at the end, so that no serial check sits on the steps'
   // critical path.
-  if (factor_solve()) {
-    int steps = 0;
-    for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
-      const int root = m.level_joints[k];
-      const int size = m.subtree_end[root] - root;
-      if (size > steps) steps = size;
-    }
-    // the steps by the group's first warp alone where its lanes hold every row (no group syncs;
-    // the other warps fill d tau/d qd meanwhile), else by the group, a sync a step
-    if (n <= 32 && g.splits_first_warp()) {
-      g.split_first_warp(
-          [&](const ThreadGroup& warp) {
-            for (int step = 0; step < steps; ++step) {
-              warp.for_each(n, [&](int i) { factor_row(i, step); });
-              warp.sync();
-            }
-          },
-          [&](const ThreadGroup& others) { others.for_each(dqd_fill_items, fill_dtau_dqd); });
-      g.sync();
-    } else {
-      for (int step = 0; step < steps; ++step) {
-        g.for_each(n + (step == 0 ? dqd_fill_items : 0), [&](int t) {
-          if (t < n) factor_row(t, step);
-          else fill_dtau_dqd(t - n);
-        });
-        g.sync();
-      }
-    }
-  } else if (minv_supplied) {
+  if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
     g.for_each(n * n + dqd_fill_items, [&](int t) {
@@ -822,26 +717,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   auto inverse_end = [&](int i) { return minv_supplied ? n : block_end(i); };
   // f64: qdd = M^-1 (tau - c) (f32 has it from the articulated-body pass), in one pass with the
   // product of d tau/d qd
-  // (by the factors: a block's qdd a thread, after the columns of d tau/d qd, a column a thread)
-  const bool qdd_from_tau = !SinglePrecision<S>::value && b.tau_input;
-  const int roots = m.level_start[1] - m.level_start[0];
-  if (factor_solve()) {
-    const int columns = want_dqd ? n : 0, qdd_items = qdd_from_tau ? roots : 0;
-    if (columns + qdd_items > 0) {
-      g.for_each(columns + qdd_items, [&](int t) {
-        if (t < columns) {
-          minus_solve_column(w.dtau_dqd, t, out_dqd);
-          return;
-        }
-        const int root = m.level_joints[m.level_start[0] + t - columns], end = m.subtree_end[root];
-        for (int i = root; i < end; ++i) w.qdd[i] = w.u[i] - w.c[i];
-        solve_block(w.qdd + root, 1, root, end, false, nullptr, 0);
-      });
-      g.sync();
-    }
-  }
-  const int qdd_items = qdd_from_tau && !factor_solve() ? n : 0;
-  const int dqd_product_items = want_dqd && !factor_solve() ? product_items : 0;
+  const int qdd_items = !SinglePrecision<S>::value && b.tau_input ? n : 0;
+  const int dqd_product_items = want_dqd ? product_items : 0;
   if (qdd_items + dqd_product_items > 0) {
     g.for_each(qdd_items + dqd_product_items, [&](int t) {
       if (t >= qdd_items) {
@@ -910,7 +787,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // the other outputs: qdd, then the d/dq entries and M^-1 of the stages that ran
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  const int dq_items = want_dq ? (factor_solve() ? n : product_items) : 0;
+  const int dq_items = want_dq ? product_items : 0;
   // entry e of M^-1 computed here (the MINV output never comes with a caller's, block_kernel_supports)
   const auto minv_entry = [&](int e) {
     if constexpr (kPacked) {
@@ -922,7 +799,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   };
   g.for_each(n + dq_items + (want_minv ? n * n : 0), [&](int t) {
     if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
-    else if (t < n + dq_items && factor_solve()) minus_solve_column(w.dtau_dq, t - n, out_dq);
     else if (t < n + dq_items) minus_product_rows(w.dtau_dq, t - n, out_dq);
     else write(minv_entry(t - n - dq_items), out_minv, state * mat + (t - n - dq_items));
   });

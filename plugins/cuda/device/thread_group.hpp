@@ -54,30 +54,6 @@ struct ThreadGroup {
     for (int item = rank; item < count; item += size) f(item);
 #endif
   }
-
-  // Whether split_first_warp can run: the group is whole warps, two at least.
-  RBDGRAD_HD bool splits_first_warp() const { return size >= 64 && size % 32 == 0; }
-  // Splits the group (splits_first_warp()): its first warp runs warp_part(group) as a group of its
-  // own that syncs as a warp (a chain of short passes that one warp carries without the others'
-  // syncs), the other threads rest(group), independent work whose passes must not sync. The
-  // caller syncs the whole group after. On the host both parts run, one after the other (reversed:
-  // the rest first).
-  template <class W, class R>
-  RBDGRAD_HD void split_first_warp(W&& warp_part, R&& rest) const {
-    ThreadGroup warp = *this, others = *this;
-    warp.size = 32;
-    warp.warp_sync = true;
-    others.rank = rank - 32;
-    others.size = size - 32;
-#if defined(__CUDA_ARCH__)
-    if (rank < 32) warp_part(static_cast<const ThreadGroup&>(warp));
-    else rest(static_cast<const ThreadGroup&>(others));
-#else
-    if (reverse) rest(static_cast<const ThreadGroup&>(others));
-    warp_part(static_cast<const ThreadGroup&>(warp));
-    if (!reverse) rest(static_cast<const ThreadGroup&>(others));
-#endif
-  }
 };
 
 // *at = max(*at, value) for the threads of a group that meet the same word (shared memory)
