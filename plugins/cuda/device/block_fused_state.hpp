@@ -679,55 +679,40 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     int segments = 1;
     while (2 * segments * n <= g.size) segments *= 2;
     const int segment_mask = segments - 1;
-    // a thread's row segment, the same in every step: row i, its block [first, end), its
-    // columns' offset from the block's first (its segment, skewed, modulo segments: rows are the
-    // block's size apart where packed, else n), where the row starts
-    struct RowSegment {
-      int i, first, end, segment;
-      S* Ai;
-    };
-    const auto row_segment = [&](int t) {
-      const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i);
-      const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
-      return RowSegment{i, first, end, (by_n.quotient(t) + skew) & segment_mask, inverse + row_at(i)};
-    };
-    const auto exchange_step = [&](const RowSegment& rs, int step) {
-      const int i = rs.i, first = rs.first, end = rs.end, segment = rs.segment, pv = end - 1 - step;
-      if (pv < first) return;  // the block's steps are done
+    for (int step = 0; step < steps; ++step) {
       const S* const row = snapshot_row + (step & 1) * n;
       const S* const col = snapshot_col + (step & 1) * n;
       S* const next_row = snapshot_row + ((step + 1) & 1) * n;
       S* const next_col = snapshot_col + ((step + 1) & 1) * n;
-      const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
-      S* const Ai = rs.Ai;
-      // the pivot's own thread keeps it and flags it, outside the loop
-      const auto holds = [&](int j) { return ((j - first) & segment_mask) == segment; };
-      if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
-      // every entry as off the pivot's column (exchange_step.hpp), that one put right after the
-      // loop, and the next step's pivot column read back after it: no compares and selects an
-      // entry
-      const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
-      for (int j = first + segment; j < end; j += segments) {
-        const S x = factors.u * row[j] + factors.s * Ai[j];
-        Ai[j] = x;
-        if (i == pv - 1) next_row[j] = x;
-      }
-      if (holds(pv)) {
-        const S x = pivot_column_entry(i, pv, a_ip, r);
-        Ai[pv] = x;
-        if (i == pv - 1) next_row[pv] = x;
-      }
-      if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
-    };
-    // the lean build keeps a thread's row segment through the steps; the compact one, at 64
-    // registers, would spill (8 bytes), and finds it anew each step
-    if constexpr (kLean) {
-      g.for_each_step(n * segments, steps, row_segment, exchange_step);
-    } else {
-      for (int step = 0; step < steps; ++step) {
-        g.for_each(n * segments, [&](int t) { exchange_step(row_segment(t), step); });
-        g.sync();
-      }
+      g.for_each(n * segments, [&](int t) {
+        const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
+        if (pv < first) return;  // the block's steps are done
+        const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
+        S* const Ai = inverse + row_at(i);
+        // this thread's columns: those whose offset from the block's first is its segment,
+        // skewed, modulo segments (rows are the block's size apart where packed, else n)
+        const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
+        const int segment = (by_n.quotient(t) + skew) & segment_mask;
+        // the pivot's own thread keeps it and flags it, outside the loop
+        const auto holds = [&](int j) { return ((j - first) & segment_mask) == segment; };
+        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
+        // every entry as off the pivot's column (exchange_step.hpp), that one put right after
+        // the loop, and the next step's pivot column read back after it: no compares and
+        // selects an entry
+        const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
+        for (int j = first + segment; j < end; j += segments) {
+          const S x = factors.u * row[j] + factors.s * Ai[j];
+          Ai[j] = x;
+          if (i == pv - 1) next_row[j] = x;
+        }
+        if (holds(pv)) {
+          const S x = pivot_column_entry(i, pv, a_ip, r);
+          Ai[pv] = x;
+          if (i == pv - 1) next_row[pv] = x;
+        }
+        if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
+      });
+      g.sync();
     }
   }
   // the columns of M^-1 that row i of a product with it needs: row i's block, or every column

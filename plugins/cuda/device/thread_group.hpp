@@ -54,32 +54,6 @@ struct ThreadGroup {
     for (int item = rank; item < count; item += size) f(item);
 #endif
   }
-
-  // `steps` passes over the same `count` items, a sync after each: body(init(item), step), where
-  // init(item) is what an item keeps from step to step (it must read only what the steps do not
-  // write). Where the group's threads hold every item (count <= size) each thread computes its
-  // item's once, before the steps (the compiler cannot hoist loads past the steps' stores to
-  // shared memory); else each step anew.
-  template <class Init, class Body>
-  RBDGRAD_HD void for_each_step(int count, int steps, Init&& init, Body&& body) const {
-#if defined(__CUDA_ARCH__)
-    if (count <= size) {
-      const bool mine = rank < count;
-      const auto kept = init(mine ? rank : 0);
-      for (int step = 0; step < steps; ++step) {
-        if (mine) body(kept, step);
-        sync();
-      }
-      return;
-    }
-    for (int step = 0; step < steps; ++step) {
-      for (int item = rank; item < count; item += size) body(init(item), step);
-      sync();
-    }
-#else
-    for (int step = 0; step < steps; ++step) for_each(count, [&](int item) { body(init(item), step); });
-#endif
-  }
 };
 
 // *at = max(*at, value) for the threads of a group that meet the same word (shared memory)
