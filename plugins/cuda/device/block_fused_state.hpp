@@ -84,16 +84,11 @@ RBDGRAD_HD S symmetric_row_dot(const S* base, int i, int k, const S* x) {
   for (int c = 1; c < 6; ++c) s += A[symmetric_index(k, c)] * x[c];
   return s;
 }
-// two chains of three (even and odd terms): a chain of six dependent multiply-adds was the
-// kernel's most common wait on a fixed-latency result (Nsight Compute, run 117)
 template <class S>
 RBDGRAD_HD S dot6(const S* a, const S* b) {
-  S even = a[0] * b[0], odd = a[1] * b[1];
-  for (int k = 2; k < 6; k += 2) {
-    even += a[k] * b[k];
-    odd += a[k + 1] * b[k + 1];
-  }
-  return even + odd;
+  S s = a[0] * b[0];
+  for (int k = 1; k < 6; ++k) s += a[k] * b[k];
+  return s;
 }
 
 // t / n and t % n by a float reciprocal: an integer division by a run-time n costs about twenty
