@@ -409,7 +409,7 @@ const bool registered = [] {
         add<double>("cuda_pipeline", robot, n, wider(pipeline(chunks), 512));
         // and the dense block kernel, three states an SM (one block of 256 threads a state), the
         // compact one with its full working set, four, and the default (its lean working set,
-        // seven states an SM at its automatic 128 threads a state) at 192 threads a state (four,
+        // eight states an SM at its automatic 128 threads a state) at 192 threads a state (four,
         // by its registers) and at 256 (three)
         for (const Kernel& k : {dense(pipeline(chunks)), full(pipeline(chunks)), wider(pipeline(chunks), 192),
                                 wider(pipeline(chunks), 256)}) {
@@ -418,7 +418,7 @@ const bool registered = [] {
         }
       }
   // cuda_compact: talos_reduced's block kernel, the default (compact with its lean working set:
-  // seven states an SM at the 128 threads a state of its automatic shape for large launches,
+  // eight states an SM at the 128 threads a state of its automatic shape for large launches,
   // block_shape_for) against the dense one and the compact one with its full working set (four
   // states an SM), end to end at the anchors' sizes; from 1024 states also the default at 192
   // and 256 threads a state for every launch (four and three states an SM by its registers),

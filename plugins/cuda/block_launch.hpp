@@ -23,10 +23,11 @@ struct BlockShape {
 /// of up to kWideStates, which leave most of the GPU idle, so that the latency of one state is
 /// what counts; for larger ones 8 per joint, rounded up to a power of two, from 64 to 256 (64 is
 /// the fastest for iiwa14 there, 256 for talos_reduced). The compact kernel's lean working set
-/// (`lean`, block_workspace.hpp) takes at most kLeanThreadsPerState for larger ones: seven
-/// talos_reduced states an SM at 72 registers a thread, where at 256 threads its registers allow
-/// three (register_cap.hpp); on an H200 its kernel at 65536 states 21% faster at 128 than at 256,
-/// at 1024 states (eight chunks of 128) 29% slower.
+/// (`lean`, block_workspace.hpp) takes at most kLeanThreadsPerState for larger ones: eight
+/// talos_reduced states an SM at 64 registers a thread (seven at 72 before its working set lost
+/// I, v and a after the subtree sums), where at 256 threads its registers allow three
+/// (register_cap.hpp); on an H200 its kernel (seven states an SM then) at 65536 states 21% faster
+/// at 128 than at 256, at 1024 states (eight chunks of 128) 29% slower.
 inline constexpr std::size_t kWideStates = 256;
 inline constexpr int kLeanThreadsPerState = 128;
 inline BlockShape block_shape_for(const BlockShape& requested, int nv, std::size_t n, bool lean = false) {

@@ -122,7 +122,7 @@ struct KernelOptions {
   bool block_compact = true;
   // the compact kernel's lean working set (device/block_workspace.hpp): the inertias and B's and
   // Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
-  // by its lifetime (talos_reduced: 30 KiB a state where the compact kernel takes 55, seven states
+  // by its lifetime (talos_reduced: 26 KiB a state where the compact kernel takes 55, eight states
   // an SM at 128 threads a state, its automatic shape for large launches: block_shape_for; on an
   // H200 its kernel 21% faster at 65536 states, end to end from 0.3% slower to 5% faster at the
   // sizes measured, docs/benchmarks/cuda.md). Needs block_compact. Read by specialize(), which

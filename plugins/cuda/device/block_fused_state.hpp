@@ -9,7 +9,8 @@
 // memory.
 //
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
-// checks, so that both kernels fail a state for the same reason and agree to rounding. It covers
+// checks, so that both kernels fail a state for the same reason and agree to rounding (one sum
+// regrouped: the subtree force due to qdd from Ic and Ic S, below, where that kernel sums I a_qdd). It covers
 // the gradient request of MPC (outputs among qdd, M^-1, d qdd/d q, d qdd/d qd, from tau or qdd,
 // with or without external forces, M^-1 computed here or the caller's); block_kernel_supports says
 // so, and any other request goes to the one-thread kernel.
@@ -438,14 +439,27 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // layout keeps the first (by its parameters, inertia_parameters.hpp) and leaves the second to
   // h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and the subtree sums need h's (hc)
   // alone.
-  g.for_each((6 + kBodyEntries) * n, [&](int t) {
+  // The lean layout also takes beta's part known before qdd here, a_parent x S + v_parent x alpha
+  // (gravity, v = 0 at the root), so that v and a die with this pass (beta = that + a_qdd_parent x
+  // S, below).
+  constexpr int kBetaItems = kLean ? 6 : 0;
+  g.for_each((6 + kBetaItems + kBodyEntries) * n, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
       const S Ia = I_row(i, c, w.a + 6 * i);
       w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
-    const int e = by_n.quotient(t - 6 * n), i = t - 6 * n - e * n;
+    if (kLean && t < 12 * n) {
+      const int beta_item = t - 6 * n, i = beta_item / 6, c = beta_item % 6, par = m.parent[i];
+      S a_par[6];
+      for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x];
+      S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
+      if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
+      w.beta[beta_item] = beta;
+      return;
+    }
+    const int e = by_n.quotient(t - (6 + kBetaItems) * n), i = t - (6 + kBetaItems) * n - e * n;
     if constexpr (kLean) {
       w.B_sym[kInertiaParameterStride * i + e] =
           block::inertia_rate_parameter(w.I + kInertiaParameterStride * i, m.mass[i], w.v + 6 * i, e);
@@ -736,7 +750,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.sync();
   }
 
-  // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and I a_qdd
+  // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and the total subtree
+  // force
   if (want_dq) {
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
@@ -748,20 +763,30 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.sync();
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6, par = m.parent[i];
-      // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the root)
-      S a_par[6];
-      for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
-      S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
-      if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
-      w.beta[t] = beta;
-      w.f_qdd[t] = I_row(i, c, w.a_qdd + 6 * i);
-    });
-    g.sync();
-    g.for_each(6 * n, [&](int t) {
-      const int i = t / 6, c = t % 6;
-      S s = w.F[t] + w.f_qdd[t];
-      for (int j = i + 1; j < m.subtree_end[i]; ++j) s += w.f_qdd[6 * j + c];
-      w.F_total[t] = s;
+      // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the
+      // root); the lean layout has the part before qdd from pass 7 (in place)
+      if constexpr (kLean) {
+        if (par >= 0) w.beta[t] += cross_motion_at(w.a_qdd + 6 * par, 1, w.axis + 6 * i, 1, c);
+      } else {
+        S a_par[6];
+        for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
+        S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
+        if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
+        w.beta[t] = beta;
+      }
+      // F_total = F + the subtree's sum of I_j a_qdd_j. With a_qdd_j = a_qdd_parent + the sum of
+      // S_k qdd_k over k from i to j, that sum is Ic a_qdd_parent + the subtree's sum of
+      // Ic_k S_k qdd_k: from Ic and Ic S, so that I and a pass of its own are not needed (in
+      // place in F, which only this item reads). Two chains, as the subtree sums.
+      S s0 = w.F[t] + (par >= 0 ? Ic_row(i, c, w.a_qdd + 6 * par) : S(0)), s1 = S(0);
+      const int end = m.subtree_end[i];
+      int j = i;
+      for (; j + 1 < end; j += 2) {
+        s0 += w.Ic_S[6 * j + c] * w.qdd[j];
+        s1 += w.Ic_S[6 * (j + 1) + c] * w.qdd[j + 1];
+      }
+      if (j < end) s0 += w.Ic_S[6 * j + c] * w.qdd[j];
+      w.F_total[t] = s0 + s1;
     });
     g.sync();
     // Dq = S x* F + Ic beta + Bc alpha, then d tau/d q entry by entry as d tau/d qd above

@@ -38,32 +38,32 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
 // The default (three states of talos_reduced an SM, or four compact): f and E sit where the local
 // placements were (dead after the inertias), h in F until the subtree sums, the external forces
 // where Bc will be (without the articulated-body pass, which reads them later), the inversion's
-// pivots and snapshots and the d/dq stage's vectors in B (dead after the subtree sums); B and Bc
-// whole (6x6, kBodyMatrixStride apart).
+// pivots and snapshots and the d/dq stage's vectors (beta, a_qdd, Dq) in B (dead after the subtree
+// sums), the total subtree force in F, in place; B and Bc whole (6x6, kBodyMatrixStride apart).
 //
-// The lean layout (`lean`, the compact kernel's option: seven states of talos_reduced an SM at 128
-// threads a state, 30.1 KiB of working set each): I, Ic, B's and Bc's symmetric parts (B_sym,
+// The lean layout (`lean`, the compact kernel's option: eight states of talos_reduced an SM at 128
+// threads a state, 26.1 KiB of working set each): I, Ic, B's and Bc's symmetric parts (B_sym,
 // Bc_sym) by their nine parameters (inertia_parameters.hpp; Ic's mass in Ic_mass, I's the model's,
 // the rates' zero), B's and Bc's antisymmetric parts by h and hc (block_fused_state.hpp), and
 // every array placed by its lifetime. The passes of block_fused_state.hpp, numbered, and what each
 // array lives through (written .. last read):
 //   1 local placements   2 world placements   3 axes, com, Icw, f_ext   4 I, v   5 alpha, h
-//   6 a   7 f, B   8 subtree sums (Ic, Ic_mass, Bc, hc, F)   9 Ic S, Bc^T S, E, c   10 M
-//   11 the inversion (and d tau/d qd)   12 qdd, d tau/d qd's product   13 a_qdd
-//   14 beta, f_qdd   15 F_total   16 Dq   17 d tau/d q   18 outputs
-// Always live (passes 3..18 at most): u, qdd, the pivots, Ic_mass, axis, I, v, alpha, a, Ic,
-// Bc_sym, hc, F, Ic S and Bc^T S, 79 scalars a joint. The others take turns in what those hold
-// before they are written, in a spare region T, and in d tau/d u's matrix, free from the product
-// of d tau/d qd (12) until d tau/d q is written (17):
-//   q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in hc; f_ext (3..7)
-//   in Bc_sym; h (5..8) in Ic S; f (7..8) in Bc^T S; in T: R (2..3) at 0 and p (2..4) at 9, then
-//   B_sym (7..8), then E (9..11), c (9..12) and the inversion's snapshots (11), then beta (14..17)
-//   at 0 and Dq (16..17) at 6; in the matrix a_qdd (13..14) and F_total (15..16) at 0 and f_qdd
-//   (14..15) at 6 n. T takes 12 scalars a joint; where the matrix has fewer than 12 n scalars
-//   (a tree of fewer than 12 joints, or of small blocks) those three go to T too, 18 a joint:
-//   a_qdd and F_total at 0, beta at 6, f_qdd and Dq at 12.
-// The f32 articulated-body pass (with_aba, after pass 10) reads R, p, qd and f_ext: those then get
-// arrays of their own, with the pass's own.
+//   6 a   7 f, B, beta's part known before qdd   8 subtree sums (Ic, Ic_mass, Bc, hc, F)
+//   9 Ic S, Bc^T S, E, c   10 M   11 the inversion (and d tau/d qd)   12 qdd, d tau/d qd's product
+//   13 a_qdd   14 beta, F_total   15 Dq   16 d tau/d q   17 outputs
+// Live from the subtree sums on (or from their first write, passes 3..17 at most): u, qdd, the
+// pivots, Ic_mass, axis, alpha, beta, Ic, Bc_sym, hc, F (F_total in place), Ic S and Bc^T S, 64
+// scalars a joint. I, v and a are not: beta's part before qdd is taken in pass 7 and F_total's
+// part due to qdd by Ic and Ic S (block_fused_state.hpp), so they die in passes 7 and 8. The
+// others take turns in what those hold before they are written, and in a region X made of a
+// spare region T (11 scalars a joint) and the two matrices after it, free until M is written
+// (10): q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in Ic S; v (4..7)
+// in hc; a (6..7) in F; f_ext (3..7) in Bc_sym; in X: R (2..3) at 0, p (2..4) at 9 n, I (4..8) at
+// 12 n, B_sym (7..8) at 21 n, h (5..8) at 0, f (7..8) at 6 n (30 scalars a joint, T made longer
+// where the matrices are smaller); in T then: E (9..11) at 0, c (9..12) at 6 n, the inversion's
+// snapshots (11) at 7 n, a_qdd (13..14) at 0, Dq (15..16) at 0.
+// The f32 articulated-body pass (with_aba, after pass 10) reads R, p, qd, v and f_ext: those then
+// get arrays of their own, with the pass's own.
 template <class S>
 struct BlockWorkspace {
   // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
@@ -72,9 +72,9 @@ struct BlockWorkspace {
   S *R_local, *p_local, *R, *p;
   // per body 6-vectors: axis S, velocity, alpha = v_parent x S, acceleration (qdd = 0), beta,
   // motion due to qdd, momentum h = I v and (lean) its subtree sum, body force (qdd = 0), subtree
-  // force, body force due to qdd, total subtree force, Ic S, Bc^T S, 2 Ic alpha + Bc S, the
+  // force (qdd = 0, then in place the total, F_total = F), Ic S, Bc^T S, 2 Ic alpha + Bc S, the
   // d tau/d q column term, external force (world)
-  S *axis, *v, *alpha, *a, *beta, *a_qdd, *h, *hc, *f, *F, *f_qdd, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
+  S *axis, *v, *alpha, *a, *beta, *a_qdd, *h, *hc, *f, *F, *F_total, *Ic_S, *Bc_t_S, *E, *Dq, *f_ext;
   // per body: the inertia at the world origin and its subtree sum (symmetric, kSymmetricStride
   // apart; the lean layout: their parameters, kInertiaParameterStride apart, and the subtree sums'
   // masses, Ic_mass, null in the default layout); the B operator and its subtree sum (6x6
@@ -96,23 +96,28 @@ struct BlockWorkspace {
 
   // the default layout: the scalars before the d/dq stage's vectors in B (pivots and snapshots)
   static constexpr int kInversionScalarsPerJoint = 5;
-  static_assert(kInversionScalarsPerJoint + 5 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
+  static_assert(kInversionScalarsPerJoint + 3 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
   // (enumerators, not static members: NVRTC would emit those as unused globals)
   enum : int {
     // scalars a joint of the default layout, and of the articulated-body pass's arrays (f_ext's
     // among them)
     kScalarsPerJoint = 5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride,
     kAbaScalarsPerJoint = 146,
-    // the lean layout's: always live, the spare region T (with a_qdd, F_total and f_qdd, or
-    // without where d tau/d u's matrix holds them), and with the articulated-body pass R, p and
-    // qd (13) besides the pass's arrays
-    kLeanLiveScalarsPerJoint = 79,
-    kLeanSpareScalarsPerJoint = 12,
-    kLeanSpareWithLateScalarsPerJoint = 18,
-    kLeanAbaScalarsPerJoint = 13 + kAbaScalarsPerJoint,
+    // the lean layout's: live from the subtree sums on, the spare region T, the region X (T and
+    // the two matrices) that the passes before the subtree sums need, and with the
+    // articulated-body pass R, p, qd and v (19) besides the pass's arrays
+    kLeanLiveScalarsPerJoint = 64,
+    kLeanSpareScalarsPerJoint = 11,
+    kLeanEarlyScalarsPerJoint = 30,
+    kLeanAbaScalarsPerJoint = 19 + kAbaScalarsPerJoint,
   };
-  // whether the lean layout puts a_qdd, F_total and f_qdd in d tau/d u's matrix (`matrix` scalars)
-  static RBDGRAD_HD bool lean_late_in_matrix(int nv, int matrix) { return matrix >= 12 * nv; }
+  // the lean layout's T: 11 scalars a joint, more where X (T and the matrices) would be shorter
+  // than the early arrays need
+  static RBDGRAD_HD int lean_spare_scalars(int nv, BlockMatrices matrices) {
+    const int spare = kLeanSpareScalarsPerJoint * nv, early = kLeanEarlyScalarsPerJoint * nv;
+    const int with_matrices = spare + matrices.matrix + matrices.minv;
+    return with_matrices >= early ? spare : early - matrices.matrix - matrices.minv;
+  }
 
   // scalars of S per state, its matrices dense, or as `matrices` says
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba) {
@@ -120,11 +125,10 @@ struct BlockWorkspace {
   }
   static RBDGRAD_HD std::size_t scalars(int nv, bool with_aba, BlockMatrices matrices, bool lean = false) {
     const std::size_t n = static_cast<std::size_t>(nv);
-    const int spare = lean_late_in_matrix(nv, matrices.matrix) ? kLeanSpareScalarsPerJoint
-                                                               : kLeanSpareWithLateScalarsPerJoint;
-    const int per_joint = lean ? kLeanLiveScalarsPerJoint + spare + (with_aba ? kLeanAbaScalarsPerJoint : 0)
+    const int per_joint = lean ? kLeanLiveScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
                                : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
-    return static_cast<std::size_t>(per_joint) * n + static_cast<std::size_t>(matrices.matrix) +
+    const std::size_t spare = lean ? static_cast<std::size_t>(lean_spare_scalars(nv, matrices)) : 0;
+    return static_cast<std::size_t>(per_joint) * n + spare + static_cast<std::size_t>(matrices.matrix) +
            static_cast<std::size_t>(matrices.minv) + kStatusScalars;
   }
 
@@ -132,21 +136,18 @@ struct BlockWorkspace {
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
       : next_(base) {
-    const bool late_in_matrix = lean && lean_late_in_matrix(nv, matrices.matrix);
-    if (lean) take_lean(nv, late_in_matrix);
+    if (lean) take_lean(nv, lean_spare_scalars(nv, matrices));
     else take_default(nv);
+    // (the lean layout's X: T, then these two)
     M = take(matrices.minv);
     dtau_dq = dtau_dqd = take(matrices.matrix);
-    if (late_in_matrix) {
-      a_qdd = F_total = dtau_dq;
-      f_qdd = dtau_dq + 6 * nv;
-    }
     if (with_aba) {
       const int n = nv;
       if (lean) {
         R = take(9 * n);
         p = take(3 * n);
         qd = take(n);
+        v = take(6 * n);
       }
       f_ext = take(6 * n);
       I_joint = take(36 * n);
@@ -188,52 +189,50 @@ struct BlockWorkspace {
     Ic_mass = B_sym = Bc_sym = hc = nullptr;  // the lean layout's
     pivots = B;
     snapshots = B + n;
-    S** const late_sixes[] = {&beta, &a_qdd, &f_qdd, &F_total, &Dq};
-    for (int k = 0; k < 5; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
+    S** const late_sixes[] = {&beta, &a_qdd, &Dq};
+    for (int k = 0; k < 3; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
+    F_total = F;
     f_ext = Bc;  // with the articulated-body pass, which reads them later, an array of their own
   }
-  // (with the articulated-body pass R, p, qd and f_ext get arrays of their own after the matrices)
-  // (late_in_matrix: a_qdd, F_total and f_qdd are placed in the matrix after it is taken)
-  RBDGRAD_HD void take_lean(int n, bool late_in_matrix) {
+  // (with the articulated-body pass R, p, qd, v and f_ext get arrays of their own after the
+  // matrices, which follow T: X)
+  RBDGRAD_HD void take_lean(int n, int spare_scalars) {
     u = take(n);
     qdd = take(n);
     pivots = take(n);
     Ic_mass = take(n);
     axis = take(6 * n);
-    I = take(kInertiaParameterStride * n);
-    v = take(6 * n);
     alpha = take(6 * n);
-    a = take(6 * n);
+    beta = take(6 * n);
     Ic = take(kInertiaParameterStride * n);
     Bc_sym = take(kInertiaParameterStride * n);
     hc = take(6 * n);
     F = take(6 * n);
     Ic_S = take(6 * n);
     Bc_t_S = take(6 * n);
-    S* const spare = take((late_in_matrix ? kLeanSpareScalarsPerJoint : kLeanSpareWithLateScalarsPerJoint) * n);
+    S* const spare = take(spare_scalars);
     B = Bc = nullptr;
+    F_total = F;
     // before their hosts are written (the comment above)
     p_local = F;
     q = F + 3 * n;
     R_local = Ic;
-    R = spare;
-    p = spare + 9 * n;
-    qd = hc;
+    qd = Ic_S;
+    v = hc;
+    a = F;
     f_ext = Bc_sym;
-    h = Ic_S;
-    f = Bc_t_S;
-    B_sym = spare;
+    S* const early = spare;  // X: T and the matrices after it
+    R = early;
+    p = early + 9 * n;
+    I = early + 12 * n;
+    B_sym = early + 21 * n;
+    h = early;
+    f = early + 6 * n;
     E = spare;
     c = spare + 6 * n;
     snapshots = spare + 7 * n;
-    if (late_in_matrix) {
-      beta = spare;
-      Dq = spare + 6 * n;
-    } else {
-      a_qdd = F_total = spare;
-      beta = spare + 6 * n;
-      f_qdd = Dq = spare + 12 * n;
-    }
+    a_qdd = spare;
+    Dq = spare;
   }
   RBDGRAD_HD S* take(int count) {
     S* at = next_;

@@ -102,7 +102,7 @@ void check_robot(const std::string& robot) {
       ASSERT_TRUE(same_outputs(a, packed)) << where << ": with the matrices packed";
 
       // the lean working set, packed: against the core, and in reverse order as 128 threads (its
-      // shape for seven talos_reduced states an SM) the same bits
+      // shape for eight talos_reduced states an SM) the same bits
       constexpr int kPerBatch = cuda::block_stages::kPerBatch;
       CudaBatch<S> lean(states, model.nv, tau_input), lean_reversed(states, model.nv, tau_input);
       lean.poison();

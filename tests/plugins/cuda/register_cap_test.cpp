@@ -2,6 +2,8 @@
 // limits, and the compact kernel's shared memory it starts from (block_launch.hpp). No GPU needed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "../../support/test_models.hpp"
 #include "block_launch.hpp"
 #include "flat_model.hpp"
@@ -50,22 +52,23 @@ TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kCompact, true), 256), 80);
 }
 
-TEST(RegisterCap, TheLeanWorkingSetFitsSevenTalosStatesAnSmAt128Threads) {
+TEST(RegisterCap, TheLeanWorkingSetFitsEightTalosStatesAnSmAt128Threads) {
   const cuda::SmLimits sm = h200();
-  // 912 bytes of the tree and 30,864 of working set (91 scalars a joint, M and d tau/d u 472
-  // scalars each): seven blocks by shared memory
-  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 30864u);
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 128), 7);
-  // seven blocks of 4 warps: 7 warps a sub-partition, 73 registers, 72 by the allocation unit
-  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 128), 72);
-  // at 256 threads a state seven blocks (14 warps a sub-partition) would need 32 registers, six 40:
-  // no cap, and the registers decide (ptxas takes 80: three blocks)
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 256), 7);
+  // 912 bytes of the tree and 26,768 of working set (75 scalars a joint, M and d tau/d u 472
+  // scalars each, two status words): eight blocks by shared memory (8 x (27,680 + 1,024) =
+  // 229,632 of 233,472 bytes)
+  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 26768u);
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 128), 8);
+  // eight blocks of 4 warps: 8 warps a sub-partition, 64 registers
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 128), 64);
+  // at 256 threads a state eight blocks (16 warps a sub-partition) would need 32 registers, seven
+  // 36: no cap, and the registers decide (ptxas takes 80: three blocks)
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 256), 8);
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 256), 0);
-  // a caller's M^-1 (dense): six by shared memory; at 192 threads six would need 56 registers,
-  // five take 64
-  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean, true), 192), 6);
-  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean, true), 192), 64);
+  // a caller's M^-1 (dense, 1,024 scalars): seven by shared memory; at 192 threads seven would
+  // need 40 registers, six 56: no cap
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean, true), 192), 7);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean, true), 192), 0);
 }
 
 // The automatic shape (block_shape_for) and the cap it leads to: the lean working set takes 128
@@ -80,9 +83,9 @@ TEST(RegisterCap, LeanWorkingSetTakes128ThreadsAStateForLargeBatches) {
   EXPECT_EQ(cuda::block_shape_for({}, 7, large, true).threads_per_state, 64);
   // a shape asked for is kept
   EXPECT_EQ(cuda::block_shape_for({192, 1}, 32, large, true).threads_per_state, 192);
-  // which gives the lean build seven blocks at 72 registers
+  // which gives the lean build eight blocks at 64 registers
   const cuda::BlockShape shape = cuda::block_shape_for({}, 32, large, true);
-  EXPECT_EQ(cuda::block_register_cap(h200(), talos_block_bytes(Build::kLean), shape.threads_per_state), 72);
+  EXPECT_EQ(cuda::block_register_cap(h200(), talos_block_bytes(Build::kLean), shape.threads_per_state), 64);
 }
 
 TEST(RegisterCap, NoCapBelowWhatSpillsOrAboveTheMost) {
@@ -123,11 +126,14 @@ TEST(RegisterCap, CompactWorkingSetPacksOnlyBetweenBlocks) {
     const std::size_t dense = cuda::block_state_scalars(flat.host_view(), true, false, false);
     const std::size_t compact = cuda::block_state_scalars(flat.host_view(), true, false, true);
     EXPECT_EQ(dense - compact, 2u * static_cast<std::size_t>(n * n - flat.matrix_scalars)) << robot;
-    // the lean working set: 187 scalars a joint against 91, or 97 where d tau/d u's matrix cannot
-    // hold three of its vectors (fewer than 12 n scalars: iiwa14's 49)
-    const std::size_t lean_per_joint = flat.matrix_scalars >= 12 * n ? 91u : 97u;
-    EXPECT_EQ(compact - cuda::block_state_scalars(flat.host_view(), true, false, true, true),
-              (187u - lean_per_joint) * static_cast<std::size_t>(n))
+    // the compact working set: 187 scalars a joint, the two matrices and two status words; the
+    // lean one: 64 a joint, a spare region of 11 a joint (more where it and the two matrices would
+    // be fewer than the 30 a joint that the passes before the subtree sums need: iiwa14's 11 n + 2
+    // x 49 = 175 < 210), the matrices and the status words
+    const std::size_t nn = static_cast<std::size_t>(n), matrices = 2u * static_cast<std::size_t>(flat.matrix_scalars);
+    const std::size_t spare = std::max(11 * nn, 30 * nn > matrices ? 30 * nn - matrices : 0);
+    EXPECT_EQ(compact, 187 * nn + matrices + 2) << robot;
+    EXPECT_EQ(cuda::block_state_scalars(flat.host_view(), true, false, true, true), 64 * nn + spare + matrices + 2)
         << robot;
   }
 }
