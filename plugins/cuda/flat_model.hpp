@@ -34,14 +34,6 @@ struct FlatModel {
         if (model.depth[i] == level + 1) level_joints[at++] = static_cast<int>(i);
     }
     level_start[levels] = at;
-    // ancestor_bits: joint i's ancestors-or-self, bit j - root (blocks of at most 32 joints)
-    auto* ancestor_bits = reinterpret_cast<unsigned*>(ints.data() + ModelLayout::ancestor_bits(nv));
-    for (std::size_t i = 0; i < n; ++i) {
-      const int root = ints[3 * n + i];
-      if (model.subtree_end[static_cast<std::size_t>(root)] - root > 32) continue;
-      for (int j = static_cast<int>(i); j >= 0; j = model.parent[static_cast<std::size_t>(j)])
-        ancestor_bits[i] |= 1u << (j - root);
-    }
     // matrix_row: the roots' blocks (contiguous index ranges) one after the other, each square
     int* matrix_row = ints.data() + ModelLayout::matrix_row(nv);
     matrix_scalars = 0;

@@ -92,33 +92,6 @@ RBDGRAD_HD S dot6(const S* a, const S* b) {
   return s;
 }
 
-// the index of x's lowest set bit (x != 0)
-RBDGRAD_HD int lowest_bit(unsigned x) {
-#if defined(__CUDA_ARCH__)
-  return __ffs(x) - 1;
-#else
-  return __builtin_ctz(x);
-#endif
-}
-
-// s + the sum of a[j] * b[j] (a 6 apart, component c) over joint i's ancestors-or-self j in index
-// order: by i's ancestor bits (ModelView::ancestor_bits), the ancestors alone, or where i's block
-// has none by the ancestor test over the block
-template <class S, class Model>
-RBDGRAD_HD S ancestor_sum(const Model& m, int i, S s, const S* a, int c, const S* b) {
-  const int root = m.root_of[i];
-  if (unsigned bits = m.ancestor_bits[i]) {
-    for (; bits != 0; bits &= bits - 1) {
-      const int j = root + lowest_bit(bits);
-      s += a[6 * j + c] * b[j];
-    }
-  } else {
-    for (int j = root; j <= i; ++j)
-      if (m.contains(j, i)) s += a[6 * j + c] * b[j];
-  }
-  return s;
-}
-
 // t / n and t % n by a float reciprocal: an integer division by a run-time n costs about twenty
 // instructions, and the passes over matrix entries do one per item. Exact for t < 2^20, n <= 64
 // (the rounding error of (t + 1/2) / n stays far below the 1/(2n) margin to the next integer).
@@ -394,7 +367,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(inertia_items + 6 * n, [&](int t) {
     if (t >= inertia_items) {
       const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
-      w.v[v_item] = block::ancestor_sum(m, i, S(0), w.axis, c, w.qd);
+      S s = S(0);
+      for (int j = m.root_of[i]; j <= i; ++j)
+        if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
+      w.v[v_item] = s;
       return;
     }
     const int local = by_n.quotient(t), i = t - local * n;
@@ -451,7 +427,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
-    w.a[t] = block::ancestor_sum(m, i, gravity_at(m, c), w.alpha, c, w.qd);
+    S s = gravity_at(m, c);
+    for (int j = m.root_of[i]; j <= i; ++j)
+      if (m.contains(j, i)) s += w.alpha[6 * j + c] * w.qd[j];
+    w.a[t] = s;
   });
   g.sync();
   // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry (entry
@@ -776,7 +755,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   if (want_dq) {
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
-      w.a_qdd[t] = block::ancestor_sum(m, i, S(0), w.axis, c, w.qdd);
+      S s = S(0);
+      for (int j = m.root_of[i]; j <= i; ++j)
+        if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
+      w.a_qdd[t] = s;
     });
     g.sync();
     g.for_each(6 * n, [&](int t) {

@@ -23,10 +23,6 @@ struct ModelView {
   const int* level_joints = nullptr;  // (nv)
   const int* level_start = nullptr;   // (levels + 1)
   int levels = 0;                     // the tree's depth
-  // (nv) joint i's ancestors-or-self as bits of a word, joint j at bit j - root_of[i]: the block
-  // kernel's sums over a joint's ancestors visit those alone, in index order (a block of at most
-  // 32 joints; 0 where i's block is larger, whose sums test every joint of the block instead)
-  const unsigned* ancestor_bits = nullptr;
   // M, M^-1 and the inverse-dynamics derivatives packed by the roots' blocks (the compact block
   // kernel, block_fused_state.hpp): entry (i, j), j in row i's block, at matrix_row[i] + j, the
   // blocks' square matrices one after the other, matrix_scalars in all (talos_reduced's blocks of
@@ -127,12 +123,11 @@ struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;
-  static constexpr int kIntsPerJoint = 8;
+  static constexpr int kIntsPerJoint = 7;
   static RBDGRAD_HD int scalars(int nv) { return kScalarsPerJoint * nv; }
   // level_start has at most nv + 1 entries
   static RBDGRAD_HD int ints(int nv) { return kIntsPerJoint * nv + 1; }
-  static RBDGRAD_HD int ancestor_bits(int nv) { return 6 * nv + 1; }
-  static RBDGRAD_HD int matrix_row(int nv) { return 7 * nv + 1; }
+  static RBDGRAD_HD int matrix_row(int nv) { return 6 * nv + 1; }
 };
 
 // A view onto blocks laid out as ModelLayout says (host or device memory alike).
@@ -148,7 +143,6 @@ RBDGRAD_HD ModelView<S> model_view(int nv, int levels, int matrix_scalars, const
   m.level_joints = ints + 4 * nv;
   m.level_start = ints + 5 * nv;
   m.levels = levels;
-  m.ancestor_bits = reinterpret_cast<const unsigned*>(ints + ModelLayout::ancestor_bits(nv));
   m.matrix_row = ints + ModelLayout::matrix_row(nv);
   m.matrix_scalars = matrix_scalars;
   m.joint_rotation = scalars;

@@ -12,10 +12,8 @@
 
 #include <cstdio>
 #include <cstring>
-#include <random>
 #include <set>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "../../support/test_models.hpp"
@@ -233,41 +231,6 @@ TEST(BlockStateOnHost, RootsSplitTheJointsIntoBlocks) {
     if (std::string(robot) == "iiwa14") {
       EXPECT_EQ(block_sizes, (std::vector<int>{7}));
     }
-  }
-}
-
-// The sums over a joint's ancestors (block::ancestor_sum): by the ancestor bits where a block has
-// at most 32 joints, by the ancestor test where it has more (a wide tree of 40 joints, one root);
-// the bits are the ancestors-or-self, and both ways give the same bits as the test over the block
-// in index order.
-TEST(BlockStateOnHost, AncestorSumsVisitTheAncestorsInOrder) {
-  for (const auto& [name, model] : {std::pair<const char*, Model>{"talos_reduced", robot_model("talos_reduced")},
-                                    {"random_tree", robot_model("random_tree")},
-                                    {"40-joint tree", random_model(9, 40, TreeShape::kWide)}}) {
-    const cuda::FlatModel<double> flat(model);
-    const cuda::ModelView<double> m = flat.host_view();
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> u(-1, 1);
-    std::vector<double> a(6 * static_cast<std::size_t>(m.nv)), b(static_cast<std::size_t>(m.nv));
-    for (double& x : a) x = u(rng);
-    for (double& x : b) x = u(rng);
-    bool large_block = false;
-    for (int i = 0; i < m.nv; ++i) {
-      const int root = m.root_of[i];
-      const bool small = m.subtree_end[root] - root <= 32;
-      large_block = large_block || !small;
-      unsigned expected_bits = 0;
-      for (int j = root; j <= i && small; ++j)
-        if (m.contains(j, i)) expected_bits |= 1u << (j - root);
-      EXPECT_EQ(m.ancestor_bits[i], expected_bits) << name << " joint " << i;
-      for (int c = 0; c < 6; ++c) {
-        double s = 0.25;
-        for (int j = root; j <= i; ++j)
-          if (m.contains(j, i)) s += a[static_cast<std::size_t>(6 * j + c)] * b[static_cast<std::size_t>(j)];
-        EXPECT_EQ(cuda::block::ancestor_sum(m, i, 0.25, a.data(), c, b.data()), s) << name << " joint " << i;
-      }
-    }
-    EXPECT_EQ(large_block, std::string(name) == "40-joint tree") << name;
   }
 }
 

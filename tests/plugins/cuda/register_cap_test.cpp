@@ -40,11 +40,10 @@ std::size_t talos_block_bytes(Build build, bool minv_supplied = false) {
 TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
   const cuda::SmLimits sm = h200();
   // the other kernel: 73.8 KiB a block, three an SM, no cap needed (ptxas takes 66 registers)
-  EXPECT_EQ(talos_block_bytes(Build::kDense), 73888u);
+  EXPECT_EQ(talos_block_bytes(Build::kDense), 73760u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kDense), 256), 3);
-  // compact: 1,040 bytes of the tree (8 ints a joint and one) and 55,440 of working set (M and
-  // d tau/d u 472 scalars each)
-  EXPECT_EQ(talos_block_bytes(Build::kCompact), 1040u + 55440u);
+  // compact: 912 bytes of the tree and 55,440 of working set (M and d tau/d u 472 scalars each)
+  EXPECT_EQ(talos_block_bytes(Build::kCompact), 912u + 55440u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kCompact), 256), 4);
   // 4 blocks of 8 warps: 8 warps on each of the 4 sub-partitions, 16K registers each
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kCompact), 256), 64);
@@ -55,10 +54,10 @@ TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
 
 TEST(RegisterCap, TheLeanWorkingSetFitsEightTalosStatesAnSmAt128Threads) {
   const cuda::SmLimits sm = h200();
-  // 1,040 bytes of the tree and 26,768 of working set (75 scalars a joint, M and d tau/d u 472
-  // scalars each, two status words): eight blocks by shared memory (8 x (27,808 + 1,024) =
-  // 230,656 of 233,472 bytes)
-  EXPECT_EQ(talos_block_bytes(Build::kLean), 1040u + 26768u);
+  // 912 bytes of the tree and 26,768 of working set (75 scalars a joint, M and d tau/d u 472
+  // scalars each, two status words): eight blocks by shared memory (8 x (27,680 + 1,024) =
+  // 229,632 of 233,472 bytes)
+  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 26768u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 128), 8);
   // eight blocks of 4 warps: 8 warps a sub-partition, 64 registers
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 128), 64);
