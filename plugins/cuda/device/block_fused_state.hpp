@@ -439,18 +439,18 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // layout keeps the first (by its parameters, inertia_parameters.hpp) and leaves the second to
   // h: B x = B_sym x + x x* h and B^T x = B_sym x - x x* h, and the subtree sums need h's (hc)
   // alone.
-  // The lean layout also takes beta's part known before qdd here, a_parent x S + v_parent x alpha
-  // (gravity, v = 0 at the root), so that v and a die with this pass (beta = that + a_qdd_parent x
-  // S, below).
-  constexpr int kBetaItems = kLean ? 6 : 0;
-  g.for_each((6 + kBetaItems + kBodyEntries) * n, [&](int t) {
+  // The lean layout also takes beta's part known before qdd here (for the d/dq stage), a_parent x
+  // S + v_parent x alpha (gravity, v = 0 at the root), so that v and a die with this pass (beta =
+  // that + a_qdd_parent x S, below).
+  const int beta_items = kLean && want_dq ? 6 * n : 0;
+  g.for_each((6 + kBodyEntries) * n + beta_items, [&](int t) {
     if (t < 6 * n) {
       const int i = t / 6, c = t % 6;
       const S Ia = I_row(i, c, w.a + 6 * i);
       w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
       return;
     }
-    if (kLean && t < 12 * n) {
+    if (kLean && t < 6 * n + beta_items) {
       const int beta_item = t - 6 * n, i = beta_item / 6, c = beta_item % 6, par = m.parent[i];
       S a_par[6];
       for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x];
@@ -459,7 +459,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       w.beta[beta_item] = beta;
       return;
     }
-    const int e = by_n.quotient(t - (6 + kBetaItems) * n), i = t - (6 + kBetaItems) * n - e * n;
+    const int e = by_n.quotient(t - 6 * n - beta_items), i = t - 6 * n - beta_items - e * n;
     if constexpr (kLean) {
       w.B_sym[kInertiaParameterStride * i + e] =
           block::inertia_rate_parameter(w.I + kInertiaParameterStride * i, m.mass[i], w.v + 6 * i, e);

@@ -363,6 +363,19 @@ TEST(BlockStateOnHost, SkippedStagesLeaveTheirArraysUntouched) {
     for (int c = 0; c < model.nv; ++c)
       EXPECT_NEAR(w.dtau_dqd[r * model.nv + c], dtau_dqd(r, c), 1e-12 * (1 + std::abs(dtau_dqd(r, c))))
           << "(" << r << ", " << c << "): the d/dq stage ran for a batch without d qdd/d q";
+
+  // the lean working set takes beta's first part with the body forces, for the d/dq stage only
+  const cuda::BlockMatrices matrices = cuda::block_matrices(model.nv, flat.matrix_scalars, true, false);
+  std::vector<double> lean_shared(cuda::BlockWorkspace<double>::scalars(model.nv, false, matrices, true),
+                                  poison<double>());
+  const cuda::BlockWorkspace<double> lean(lean_shared.data(), model.nv, false, matrices, true);
+  cuda::block_load_inputs(m.nv, lean, b, 0, g);
+  cuda::block_evaluate_state<double, cuda::ModelView<double>, double, cuda::block_stages::kPerBatch, true, true>(
+      m, lean, b, 0, true, g);
+  ASSERT_EQ(status, 0u);
+  for (int e = 0; e < 6 * model.nv; ++e)
+    EXPECT_EQ(0, std::memcmp(&lean.beta[e], &lean_shared.back(), sizeof(double)))
+        << "beta[" << e << "]: the lean working set took beta for a batch without d qdd/d q";
 }
 
 class BlockStateOnHost : public ::testing::TestWithParam<const char*> {};
