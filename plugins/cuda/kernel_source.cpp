@@ -80,14 +80,9 @@ NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int
   p.headers.assign(kEmbeddedDeviceHeaders, kEmbeddedDeviceHeaders + kEmbeddedDeviceHeaderCount);
   p.options = compile_options(arch);
   if (build.register_cap > 0) p.options.push_back("--maxrregcount=" + std::to_string(build.register_cap));
-  // the lean build's packed matrices' size and the roots' blocks as constants too (model_view.hpp
-  // says why); the other builds are as they were measured
-  std::string fixed_matrix;
-  if (lean) {
-    const FlatModel<double> flat(model);
-    fixed_matrix = ", " + std::to_string(flat.matrix_scalars) + ", " +
-                   hex_constant(pack_block_starts(flat.host_view().root_of, model.nv));
-  }
+  // the lean build's packed matrices' size as a constant too (model_view.hpp says why); the other
+  // builds are as they were measured
+  const std::string fixed_matrix = lean ? ", " + std::to_string(FlatModel<double>(model).matrix_scalars) : "";
   p.name_expressions = {"rbdgrad::cuda::block_fused_kernel<" + scalar + ", rbdgrad::cuda::FixedSizeModelView<" +
                         scalar + ", " + nv + ", " + levels + fixed_matrix + ">" + io + staged + compact + ">"};
   return p;

@@ -238,17 +238,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const bool want_dq = kFixed ? (kStages & block_stages::kDq) != 0 : (b.outputs & kOutputDqddDq) != 0;
   const bool want_dqd = kFixed ? (kStages & block_stages::kDqd) != 0 : (b.outputs & kOutputDqddDqd) != 0;
   const bool minv_supplied = kFixed ? (kStages & block_stages::kMinvSupplied) != 0 : b.minv != nullptr;
-  // joint i's block (its root's subtree): where it starts, by the constants where the model type
-  // fixes the blocks (FixedSizeModelView's BLOCKS), else by the view's arrays
-  constexpr unsigned long long kBlocks = FixedSizes<Model>::blocks;
-  const auto block_begin = [&](int i) {
-    if constexpr (kBlocks != 0) return fixed_block_bounds(kBlocks, n, i).first;
-    else return m.root_of[i];
-  };
-  const auto block_end = [&](int i) {
-    if constexpr (kBlocks != 0) return fixed_block_bounds(kBlocks, n, i).end;
-    else return m.subtree_end[m.root_of[i]];
-  };
   // where row i of M (of M^-1 computed here) and of d tau/d u starts: entry (i, j) at row_at(i) + j,
   // j in row i's block where packed (entries between blocks are zero and not stored)
   const auto row_at = [&](int i) {
@@ -258,7 +247,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // the same for M^-1: a caller's stays dense
   const auto inverse_row = [&](int i) { return minv_supplied ? i * n : row_at(i); };
   // (a, b) in different blocks: not stored where packed
-  const auto unstored = [&](int a, int bb) { return kPacked && block_begin(a) != block_begin(bb); };
+  const auto unstored = [&](int a, int bb) { return kPacked && m.root_of[a] != m.root_of[bb]; };
   // (I x)_c and (Ic x)_c of body i: by the upper triangles, or (lean) by the parameters
   const auto I_row = [&](int i, int c, const S* x) {
     if constexpr (kLean) return block::inertia_row_dot(w.I, i, c, x, m.mass[i]);
@@ -379,7 +368,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (t >= inertia_items) {
       const int v_item = t - inertia_items, i = v_item / 6, c = v_item % 6;
       S s = S(0);
-      for (int j = block_begin(i); j <= i; ++j)
+      for (int j = m.root_of[i]; j <= i; ++j)
         if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
       w.v[v_item] = s;
       return;
@@ -439,7 +428,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.for_each(6 * n, [&](int t) {
     const int i = t / 6, c = t % 6;
     S s = gravity_at(m, c);
-    for (int j = block_begin(i); j <= i; ++j)
+    for (int j = m.root_of[i]; j <= i; ++j)
       if (m.contains(j, i)) s += w.alpha[6 * j + c] * w.qd[j];
     w.a[t] = s;
   });
@@ -573,6 +562,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   S* const inverse = w.M;
   // (in the default layout as B's offsets: the same code as before the lean layout was added)
   S* const pivots = kLean ? w.pivots : w.B;
+  auto block_begin = [&](int i) { return m.root_of[i]; };
+  auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
 
   // d qdd/d u = -M^-1 dc'/du, every entry in parallel (after the inversion); each thread writes
   // its own entries (consecutive items, consecutive addresses) and flags what is not finite.
@@ -765,7 +756,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     g.for_each(6 * n, [&](int t) {
       const int i = t / 6, c = t % 6;
       S s = S(0);
-      for (int j = block_begin(i); j <= i; ++j)
+      for (int j = m.root_of[i]; j <= i; ++j)
         if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
       w.a_qdd[t] = s;
     });

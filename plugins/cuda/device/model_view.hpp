@@ -54,13 +54,9 @@ struct ModelView {
 // loops over joints have fixed trip counts and its index arithmetic divides by constants; the
 // lean build sees the packed matrices' size too (MATRIX_SCALARS, 0: the view's, at run time), so
 // that its working set's arrays all sit at constant offsets (ptxas: no spills at 72 registers for
-// talos_reduced, where the run-time size spills 8 bytes) and the roots' blocks (BLOCKS,
-// pack_block_starts; 0: the view's root_of), so that a joint's block bounds are a few compares
-// with constants where they took two dependent loads from shared memory (the inversion's steps
-// find them anew every step). (The packed rows' starts stay the view's matrix_row: computed from
-// the constants too, they made the f64-for-f32 lean build spill at 64 registers.) The arrays are the same as the
-// view's. Code that takes a ModelView<S>& sees the run-time sizes, which are equal.
-template <class S, int NV, int LEVELS, int MATRIX_SCALARS = 0, unsigned long long BLOCKS = 0>
+// talos_reduced, where the run-time size spills 8 bytes). The arrays are the same as the view's.
+// Code that takes a ModelView<S>& sees the run-time sizes, which are equal.
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS = 0>
 struct FixedSizeModelView : ModelView<S> {
   static_assert(NV >= 1 && LEVELS >= 1 && LEVELS <= NV, "a tree of NV joints is 1 to NV levels deep");
   static_assert(MATRIX_SCALARS >= 0 && MATRIX_SCALARS <= NV * NV, "the packed matrices are at most nv x nv");
@@ -69,46 +65,6 @@ struct FixedSizeModelView : ModelView<S> {
   static constexpr int matrix_scalars = MATRIX_SCALARS;
   RBDGRAD_HD explicit FixedSizeModelView(const ModelView<S>& view) : ModelView<S>(view) {}
 };
-
-// The roots' blocks as a constant: their count in the low 4 bits, then the first joint of each
-// block after the first in 7 bits (blocks in index order; block 0 starts at joint 0 and the last
-// ends at nv). Up to kMaxFixedBlocks blocks of a tree of at most 127 joints, else 0 (not fixed).
-inline constexpr int kMaxFixedBlocks = 8;
-RBDGRAD_HD constexpr unsigned long long pack_block_starts(const int* root_of, int nv) {
-  if (nv < 1 || nv > 127) return 0;
-  unsigned long long packed = 0;
-  int count = 1;
-  for (int i = 1; i < nv; ++i) {
-    if (root_of[i] == root_of[i - 1]) continue;
-    if (count == kMaxFixedBlocks) return 0;
-    packed |= static_cast<unsigned long long>(i) << (4 + 7 * (count - 1));
-    ++count;
-  }
-  return packed | static_cast<unsigned long long>(count);
-}
-// Where block b of `packed` starts (b = count: nv, the last one's end)
-RBDGRAD_HD constexpr int fixed_block_start(unsigned long long packed, int nv, int b) {
-  const int count = static_cast<int>(packed & 15u);
-  return b <= 0 ? 0 : b >= count ? nv : static_cast<int>((packed >> (4 + 7 * (b - 1))) & 127u);
-}
-// Joint i's block: its first joint and one past its last. By compares with constants where
-// `packed` is one (the loop unrolls over kMaxFixedBlocks).
-struct BlockBounds {
-  int first, end;
-};
-RBDGRAD_HD constexpr BlockBounds fixed_block_bounds(unsigned long long packed, int nv, int i) {
-  const int count = static_cast<int>(packed & 15u);
-  int first = 0, end = fixed_block_start(packed, nv, 1);
-  for (int b = 1; b < kMaxFixedBlocks; ++b) {
-    if (b >= count) break;
-    const int start = fixed_block_start(packed, nv, b);
-    if (i >= start) {
-      first = start;
-      end = fixed_block_start(packed, nv, b + 1);
-    }
-  }
-  return {first, end};
-}
 
 // A FixedSizeModelView whose tree is a constant too (the warp kernel compiled for one robot): each
 // joint's parent and subtree end packed in 4 bits (parent + 1 and end - 1, up to 16 joints), so
@@ -135,17 +91,15 @@ struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
   RBDGRAD_HD explicit FixedTreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS>(view) {}
 };
 
-// The number of joints, the tree depth, the packed matrices' size and the roots' blocks
-// (pack_block_starts) a model type fixes at compile time, 0 for run-time ones.
+// The number of joints, the tree depth and the packed matrices' size a model type fixes at compile
+// time, 0 for run-time sizes.
 template <class Model>
 struct FixedSizes {
   static constexpr int nv = 0, levels = 0, matrix_scalars = 0;
-  static constexpr unsigned long long blocks = 0;
 };
-template <class S, int NV, int LEVELS, int MATRIX_SCALARS, unsigned long long BLOCKS>
-struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS, BLOCKS>> {
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS>
+struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>> {
   static constexpr int nv = NV, levels = LEVELS, matrix_scalars = MATRIX_SCALARS;
-  static constexpr unsigned long long blocks = BLOCKS;
 };
 template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long E>
 struct FixedSizes<FixedTreeModelView<S, NV, LEVELS, P, E>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};

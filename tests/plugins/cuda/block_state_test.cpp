@@ -158,18 +158,14 @@ TEST(BlockStateOnHost, DividerIsExactForEveryIndexOfAPass) {
   }
 }
 
-// The robot-specific kernel (kernel_source.cpp) fixes nv and the tree's depth at compile time
-// (and its lean build the packed matrices' size and the roots' blocks, MATRIX and BLOCKS, as
-// kernel_source.cpp writes them): the same code, so the same results bit for bit (this test
-// builds without FMA contraction, so the constant folding cannot change a rounding either).
-template <class S, int NV, int LEVELS, int MATRIX, unsigned long long BLOCKS>
+// The robot-specific kernel (kernel_source.cpp) fixes nv and the tree's depth at compile time:
+// the same code, so the same results bit for bit (this test builds without FMA contraction, so
+// the constant folding cannot change a rounding either).
+template <class S, int NV, int LEVELS>
 void check_fixed_sizes(const std::string& robot) {
   const Model model = robot_model(robot);
   ASSERT_EQ(model.nv, NV) << robot;
   ASSERT_EQ(model.max_depth(), LEVELS) << robot;
-  const cuda::FlatModel<double> flat(model);
-  ASSERT_EQ(flat.matrix_scalars, MATRIX) << robot;
-  ASSERT_EQ(cuda::pack_block_starts(flat.host_view().root_of, model.nv), BLOCKS) << robot;
   const std::vector<StateInputs> states = random_inputs(model, 8, 11);
   for (const bool tau_input : {true, false}) {
     for (const OutputCase& c : kBlockCases) {
@@ -198,55 +194,16 @@ void check_fixed_sizes(const std::string& robot) {
           model, lean_fixed, c, tau_input, false);
       ASSERT_EQ(s4, s5) << where << ", lean";
       ASSERT_TRUE(same_outputs(lean, lean_fixed)) << where << ": the lean working set with the sizes fixed";
-      // and as NVRTC builds it: the packed size and the blocks fixed too, reversed as 128 threads
-      CudaBatch<S> lean_blocks(states, model.nv, tau_input);
-      lean_blocks.poison();
-      const auto s6 =
-          run_block_on_host<S, cuda::FixedSizeModelView<S, NV, LEVELS, MATRIX, BLOCKS>, kPerBatch, true, true>(
-              model, lean_blocks, c, tau_input, true, 128);
-      ASSERT_EQ(s4, s6) << where << ", lean, blocks fixed";
-      ASSERT_TRUE(same_outputs(lean, lean_blocks)) << where << ": the lean working set with the blocks fixed";
     }
   }
 }
 
 TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
-  // the blocks: iiwa14 one; hyq four legs from joints 0, 3, 6, 9; talos_reduced two legs and the
-  // torso from 0, 6, 12 (count in the low 4 bits, then 7 bits a start)
-  check_fixed_sizes<double, 7, 7, 49, 0x1>("iiwa14");
-  check_fixed_sizes<float, 7, 7, 49, 0x1>("iiwa14");
-  check_fixed_sizes<double, 12, 3, 36, 0x243034>("hyq");
-  check_fixed_sizes<float, 12, 3, 36, 0x243034>("hyq");
-  check_fixed_sizes<double, 32, 10, 472, 0x6063>("talos_reduced");
-}
-
-// The roots' blocks as constants (pack_block_starts, fixed_block_bounds) give each joint the
-// view's block, for every robot; a tree of more blocks than a constant holds is
-// not packed.
-TEST(BlockStateOnHost, FixedBlocksAreTheViewsBlocks) {
-  for (const char* robot : {"iiwa14", "panda", "talos_reduced", "hyq", "random_tree", "wide_tree"}) {
-    const Model model = robot_model(robot);
-    const cuda::FlatModel<double> flat(model);
-    const cuda::ModelView<double> m = flat.host_view();
-    const unsigned long long packed = cuda::pack_block_starts(m.root_of, m.nv);
-    int roots = 0;
-    for (int i = 0; i < m.nv; ++i) roots += m.root_of[i] == i;
-    if (roots > cuda::kMaxFixedBlocks) {
-      EXPECT_EQ(packed, 0u) << robot;
-      continue;
-    }
-    ASSERT_EQ(static_cast<int>(packed & 15u), roots) << robot;
-    for (int i = 0; i < m.nv; ++i) {
-      const cuda::BlockBounds bounds = cuda::fixed_block_bounds(packed, m.nv, i);
-      EXPECT_EQ(bounds.first, m.root_of[i]) << robot << " joint " << i;
-      EXPECT_EQ(bounds.end, m.subtree_end[m.root_of[i]]) << robot << " joint " << i;
-    }
-  }
-  // nine roots of one joint each: more than a constant holds
-  const std::vector<int> nine = {0, 1, 2, 3, 4, 5, 6, 7, 8};
-  EXPECT_EQ(cuda::pack_block_starts(nine.data(), 9), 0u);
-  const std::vector<int> eight = {0, 1, 2, 3, 4, 5, 6, 7, 7};
-  EXPECT_NE(cuda::pack_block_starts(eight.data(), 9), 0u);
+  check_fixed_sizes<double, 7, 7>("iiwa14");
+  check_fixed_sizes<float, 7, 7>("iiwa14");
+  check_fixed_sizes<double, 12, 3>("hyq");
+  check_fixed_sizes<float, 12, 3>("hyq");
+  check_fixed_sizes<double, 32, 10>("talos_reduced");
 }
 
 // The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's
