@@ -16,7 +16,7 @@ namespace rbdgrad::cuda {
 // caller's M^-1 stays dense). The NVRTC build caps its registers to match (register_cap.hpp).
 // Its lean working set (kLean, block_workspace.hpp) is smaller again: the inertias and B's and
 // Bc's symmetric parts by their parameters, their other parts by the momenta, each array placed
-// by its lifetime (talos_reduced: seven an SM at 128 threads a state).
+// by its lifetime (talos_reduced: eight an SM at 128 threads a state).
 
 // The robot's ints a block copies to shared memory: the tree, and (compact) where the packed
 // matrices' rows start (the last of ModelLayout's ints, ModelView::matrix_row)
