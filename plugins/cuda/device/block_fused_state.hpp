@@ -188,6 +188,13 @@ template <class S>
 RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
   return c < 3 ? S(0) : c == 3 ? -m.gravity[0] : c == 4 ? -m.gravity[1] : -m.gravity[2];
 }
+// ([0; -g] x S)_c, the root's a_parent x S: zero for c < 3, (-g x S_angular)_(c - 3) after
+template <class S, class Model>
+RBDGRAD_HD S gravity_cross_at(const Model& m, const S* Si, int c) {
+  const int r = c < 3 ? 0 : c - 3, r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+  const S x = gravity_at(m, 3 + r1) * Si[r2] - gravity_at(m, 3 + r2) * Si[r1];
+  return c < 3 ? S(0) : x;
+}
 
 }  // namespace block
 
@@ -452,11 +459,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
     if (kLean && t < 6 * n + beta_items) {
       const int beta_item = t - 6 * n, i = beta_item / 6, c = beta_item % 6, par = m.parent[i];
-      S a_par[6];
-      for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x];
-      S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
-      if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
-      w.beta[beta_item] = beta;
+      // (no local copy of a_parent: one indexed at run time went to local memory)
+      const S* Si = w.axis + 6 * i;
+      w.beta[beta_item] = par >= 0 ? cross_motion_at(w.a + 6 * par, 1, Si, 1, c) +
+                                         cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c)
+                                   : block::gravity_cross_at(m, Si, c);
       return;
     }
     const int e = by_n.quotient(t - 6 * n - beta_items), i = t - 6 * n - beta_items - e * n;
