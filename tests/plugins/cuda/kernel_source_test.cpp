@@ -15,8 +15,11 @@
 #include <string>
 
 #include "../../support/test_models.hpp"
+#include "block_launch.hpp"
+#include "flat_model.hpp"
 #include "kernel_cache.hpp"
 #include "kernel_source.hpp"
+#include "register_cap.hpp"
 #include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 
@@ -244,6 +247,48 @@ void expect_talos_build_holds_its_cap(const cuda::BlockBuild& build, const char*
       cuda::block_kernel_program(model, cuda::KernelScalars::kF32, 90, cuda::block_stages::kPerBatch, f32), out);
   ASSERT_TRUE(s.is_ok()) << s.message();
   EXPECT_EQ(out.kernel_symbols.size(), 1u);
+}
+
+// Every embedded robot's lean build (the default compact kernel's working set), compiled as the
+// plugin compiles it on an H100 or H200 (specialized_kernel.cpp: the register cap that the lean
+// blocks of its automatic shape for large launches get from an SM's shared memory), holds that
+// cap without spilling: the cap follows the working set, and a smaller set means a lower one (or
+// none, where even one block fewer than shared memory allows would need fewer than 64: the
+// smaller robots).
+TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
+  SKIP_WITHOUT_NVRTC();
+  cuda::SmLimits hopper;  // cudaDeviceProp of an H100 SXM or an H200 (the same SM)
+  hopper.shared_bytes = 233472;
+  hopper.reserved_shared_bytes = 1024;
+  hopper.registers = 65536;
+  hopper.max_threads = 2048;
+  hopper.max_blocks = 32;
+  for (std::string_view name : embedded_robot_names()) {
+    const Model model = load_embedded(std::string(name));
+    const cuda::FlatModel<double> flat(model);
+    cuda::BatchPointers<double> batch;
+    batch.tau_input = true;
+    const cuda::BlockShape large = cuda::block_shape_for({}, model.nv, cuda::kWideStates + 1, true);
+    cuda::BlockBuild build{true, 0, true};
+    build.register_cap = cuda::block_register_cap(hopper, cuda::compact_block_shared_bytes(flat.host_view(), batch, large, true),
+                                                  large.threads_per_state * large.states_per_block);
+    for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
+      cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build);
+      p.options.push_back("--ptxas-options=--verbose");
+      cuda::NvrtcOutput out;
+      const Status s = cuda::nvrtc_compile(p, out);
+      ASSERT_TRUE(s.is_ok()) << name << " " << cuda::kernel_scalars_name(scalars) << ": " << s.message();
+      const PtxasReport r = ptxas_report(out.log);
+      std::printf("%s lean %s: cap %d, %d registers, %d bytes spill stores, %d bytes spill loads\n",
+                  std::string(name).c_str(), cuda::kernel_scalars_name(scalars), build.register_cap, r.registers,
+                  r.spill_stores, r.spill_loads);
+      if (build.register_cap > 0) {
+        EXPECT_LE(r.registers, build.register_cap) << name << "\n" << out.log;
+      }
+      EXPECT_EQ(r.spill_stores, 0) << name << " " << cuda::kernel_scalars_name(scalars) << "\n" << out.log;
+      EXPECT_EQ(r.spill_loads, 0) << name << " " << cuda::kernel_scalars_name(scalars) << "\n" << out.log;
+    }
+  }
 }
 
 // The compact kernel (device/block_kernel_entry.hpp) for talos_reduced, the robot it is for: at
