@@ -10,10 +10,10 @@
 //
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
 // checks, so that both kernels fail a state for the same reason and agree to rounding (one sum
-// regrouped: the subtree force due to qdd from Ic and Ic S, below, where that kernel sums I a_qdd). It covers
-// the gradient request of MPC (outputs among qdd, M^-1, d qdd/d q, d qdd/d qd, from tau or qdd,
-// with or without external forces, M^-1 computed here or the caller's); block_kernel_supports says
-// so, and any other request goes to the one-thread kernel.
+// regrouped: the subtree force due to qdd from Ic and Ic S, below, where that kernel sums
+// I a_qdd). It covers the gradient request of MPC (outputs among qdd, M^-1, d qdd/d q,
+// d qdd/d qd, from tau or qdd, with or without external forces, M^-1 computed here or the
+// caller's); block_kernel_supports says so, and any other request goes to the one-thread kernel.
 //
 // Stages (issue 8): the d/dq and d/dqd columns and the inversion of M run only when needed. The
 // kernel compiled for any robot decides per batch (its outputs, whether it brings M^-1); a kernel

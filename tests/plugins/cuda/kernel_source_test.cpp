@@ -270,8 +270,9 @@ TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
     batch.tau_input = true;
     const cuda::BlockShape large = cuda::block_shape_for({}, model.nv, cuda::kWideStates + 1, true);
     cuda::BlockBuild build{true, 0, true};
-    build.register_cap = cuda::block_register_cap(hopper, cuda::compact_block_shared_bytes(flat.host_view(), batch, large, true),
-                                                  large.threads_per_state * large.states_per_block);
+    const std::size_t block_bytes = cuda::compact_block_shared_bytes(flat.host_view(), batch, large, true);
+    build.register_cap =
+        cuda::block_register_cap(hopper, block_bytes, large.threads_per_state * large.states_per_block);
     for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
       cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build);
       p.options.push_back("--ptxas-options=--verbose");
