@@ -4,16 +4,22 @@
 
 #include "cuda_device.hpp"
 #include "flat_model.hpp"
-#include "register_cap.hpp"
 
 namespace rbdgrad::cuda {
 
+int compact_register_cap(const Model& model, bool lean, const BlockShape& shape, const SmLimits& sm) {
+  const FlatModel<double> flat(model);
+  BatchPointers<double> batch;
+  batch.tau_input = true;
+  const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1, lean);
+  return block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large, lean),
+                            large.threads_per_state * large.states_per_block);
+}
+
 namespace {
 
-// The compact f64 kernel's register cap on `device` for blocks of `shape` (large batches' shape
-// where it is automatic), from its shared memory (lean or not) for a batch from tau without a
-// caller's M^-1
-Status compact_register_cap(const Model& model, bool lean, const BlockShape& shape, int device, int& cap) {
+// compact_register_cap on `device`'s SM
+Status device_register_cap(const Model& model, bool lean, const BlockShape& shape, int device, int& cap) {
   cudaDeviceProp prop{};
   if (Status s = cuda_status(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties"); !s) return s;
   SmLimits sm;
@@ -22,12 +28,7 @@ Status compact_register_cap(const Model& model, bool lean, const BlockShape& sha
   sm.registers = prop.regsPerMultiprocessor;
   sm.max_threads = prop.maxThreadsPerMultiProcessor;
   sm.max_blocks = prop.maxBlocksPerMultiProcessor;
-  const FlatModel<double> flat(model);
-  BatchPointers<double> batch;
-  batch.tau_input = true;
-  const BlockShape large = block_shape_for(shape, model.nv, kWideStates + 1, lean);
-  cap = block_register_cap(sm, compact_block_shared_bytes(flat.host_view(), batch, large, lean),
-                           large.threads_per_state * large.states_per_block);
+  cap = compact_register_cap(model, lean, shape, sm);
   return Status::ok();
 }
 
@@ -43,7 +44,7 @@ Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, i
   k->build_.compact = compact;
   k->build_.lean = compact && lean;
   if (compact && scalars != KernelScalars::kF32)
-    if (Status s = compact_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
+    if (Status s = device_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
                                        max_shared_bytes, cache_dir, k->library_);
       !s)

@@ -12,10 +12,16 @@
 #include "block_launch.hpp"
 #include "compiled_library.hpp"
 #include "kernel_source.hpp"
+#include "register_cap.hpp"
 #include "rbdgrad/model.hpp"
 #include "rbdgrad/status.hpp"
 
 namespace rbdgrad::cuda {
+
+/// The compact f64 kernel's register cap (register_cap.hpp) on an SM of `sm` for blocks of `shape`
+/// (large batches' shape where it is automatic), from its shared memory (lean or not) for a batch
+/// from tau without a caller's M^-1. 0: no cap.
+int compact_register_cap(const Model& model, bool lean, const BlockShape& shape, const SmLimits& sm);
 
 class SpecializedBlockKernel {
  public:

@@ -15,11 +15,9 @@
 #include <string>
 
 #include "../../support/test_models.hpp"
-#include "block_launch.hpp"
-#include "flat_model.hpp"
 #include "kernel_cache.hpp"
 #include "kernel_source.hpp"
-#include "register_cap.hpp"
+#include "specialized_kernel.hpp"
 #include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 
@@ -219,26 +217,39 @@ PtxasReport ptxas_report(const std::string& log) {
   return r;
 }
 
+// `model`'s `scalars` build of `build` compiled with NVRTC holds its register cap (if any) without
+// spilling, by ptxas's own report
+void expect_build_holds_its_cap(const Model& model, cuda::KernelScalars scalars, const cuda::BlockBuild& build,
+                                const std::string& label) {
+  cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build);
+  if (build.register_cap > 0) {
+    EXPECT_THAT(p.options, ::testing::Contains("--maxrregcount=" + std::to_string(build.register_cap))) << label;
+  }
+  p.options.push_back("--ptxas-options=--verbose");
+  cuda::NvrtcOutput out;
+  const Status s = cuda::nvrtc_compile(p, out);
+  ASSERT_TRUE(s.is_ok()) << label << ": " << s.message();
+  const PtxasReport r = ptxas_report(out.log);
+  std::printf("%s: cap %d, %d registers, %d bytes spill stores, %d bytes spill loads\n", label.c_str(),
+              build.register_cap, r.registers, r.spill_stores, r.spill_loads);
+  EXPECT_GT(r.registers, 0) << label << "\n" << out.log;
+  if (build.register_cap > 0) {
+    EXPECT_LE(r.registers, build.register_cap) << label << "\n" << out.log;
+  }
+  EXPECT_EQ(r.spill_stores, 0) << label << "\n" << out.log;
+  EXPECT_EQ(r.spill_loads, 0) << label << "\n" << out.log;
+}
+
 // talos_reduced's f64 builds of `build` (compact, at its register cap) hold that cap without
-// spilling, by ptxas's own report; `text` is in their source; its f32 build (no cap) compiles.
+// spilling; `text` is in their source; its f32 build (no cap) compiles.
 void expect_talos_build_holds_its_cap(const cuda::BlockBuild& build, const char* label, const char* text) {
   const Model model = load_embedded("talos_reduced");
-  const std::string cap = std::to_string(build.register_cap);
   for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
-    cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build);
-    EXPECT_THAT(p.source, HasSubstr(text)) << cuda::kernel_scalars_name(scalars);
-    EXPECT_THAT(p.options, ::testing::Contains("--maxrregcount=" + cap));
-    p.options.push_back("--ptxas-options=--verbose");
-    cuda::NvrtcOutput out;
-    const Status s = cuda::nvrtc_compile(p, out);
-    ASSERT_TRUE(s.is_ok()) << cuda::kernel_scalars_name(scalars) << ": " << s.message();
-    const PtxasReport r = ptxas_report(out.log);
-    std::printf("talos_reduced %s %s: %d registers, %d bytes spill stores, %d bytes spill loads\n", label,
-                cuda::kernel_scalars_name(scalars), r.registers, r.spill_stores, r.spill_loads);
-    EXPECT_GT(r.registers, 0) << out.log;
-    EXPECT_LE(r.registers, build.register_cap) << out.log;
-    EXPECT_EQ(r.spill_stores, 0) << out.log;
-    EXPECT_EQ(r.spill_loads, 0) << out.log;
+    EXPECT_THAT(cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build).source,
+                HasSubstr(text))
+        << cuda::kernel_scalars_name(scalars);
+    expect_build_holds_its_cap(model, scalars, build,
+                               std::string("talos_reduced ") + label + " " + cuda::kernel_scalars_name(scalars));
   }
   cuda::BlockBuild f32 = build;
   f32.register_cap = 0;
@@ -250,11 +261,11 @@ void expect_talos_build_holds_its_cap(const cuda::BlockBuild& build, const char*
 }
 
 // Every embedded robot's lean build (the default compact kernel's working set), compiled as the
-// plugin compiles it on an H100 or H200 (specialized_kernel.cpp: the register cap that the lean
-// blocks of its automatic shape for large launches get from an SM's shared memory), holds that
-// cap without spilling: the cap follows the working set, and a smaller set means a lower one (or
-// none, where even one block fewer than shared memory allows would need fewer than 64: the
-// smaller robots).
+// plugin compiles it on an H100 or H200 (compact_register_cap, specialized_kernel.hpp: the cap
+// that the lean blocks of its automatic shape for large launches get from an SM's shared
+// memory), holds that cap without spilling: the cap follows the working set, and a smaller set
+// means a lower one (or none, where even one block fewer than shared memory allows would need
+// fewer than 64: the smaller robots).
 TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
   cuda::SmLimits hopper;  // cudaDeviceProp of an H100 SXM or an H200 (the same SM)
@@ -265,30 +276,10 @@ TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
   hopper.max_blocks = 32;
   for (std::string_view name : embedded_robot_names()) {
     const Model model = load_embedded(std::string(name));
-    const cuda::FlatModel<double> flat(model);
-    cuda::BatchPointers<double> batch;
-    batch.tau_input = true;
-    const cuda::BlockShape large = cuda::block_shape_for({}, model.nv, cuda::kWideStates + 1, true);
-    cuda::BlockBuild build{true, 0, true};
-    const std::size_t block_bytes = cuda::compact_block_shared_bytes(flat.host_view(), batch, large, true);
-    build.register_cap =
-        cuda::block_register_cap(hopper, block_bytes, large.threads_per_state * large.states_per_block);
-    for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32}) {
-      cuda::NvrtcProgram p = cuda::block_kernel_program(model, scalars, 90, cuda::block_stages::kPerBatch, build);
-      p.options.push_back("--ptxas-options=--verbose");
-      cuda::NvrtcOutput out;
-      const Status s = cuda::nvrtc_compile(p, out);
-      ASSERT_TRUE(s.is_ok()) << name << " " << cuda::kernel_scalars_name(scalars) << ": " << s.message();
-      const PtxasReport r = ptxas_report(out.log);
-      std::printf("%s lean %s: cap %d, %d registers, %d bytes spill stores, %d bytes spill loads\n",
-                  std::string(name).c_str(), cuda::kernel_scalars_name(scalars), build.register_cap, r.registers,
-                  r.spill_stores, r.spill_loads);
-      if (build.register_cap > 0) {
-        EXPECT_LE(r.registers, build.register_cap) << name << "\n" << out.log;
-      }
-      EXPECT_EQ(r.spill_stores, 0) << name << " " << cuda::kernel_scalars_name(scalars) << "\n" << out.log;
-      EXPECT_EQ(r.spill_loads, 0) << name << " " << cuda::kernel_scalars_name(scalars) << "\n" << out.log;
-    }
+    const cuda::BlockBuild build{true, cuda::compact_register_cap(model, true, {}, hopper), true};
+    for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32})
+      expect_build_holds_its_cap(model, scalars, build,
+                                 std::string(name) + " lean " + cuda::kernel_scalars_name(scalars));
   }
 }
 
