@@ -28,6 +28,12 @@ using ::testing::HasSubstr;
 constexpr std::uint32_t kGradient =
     RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
 
+// the middle of v (the upper of the two middles for an even size)
+double median_of(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
 template <class S>
 testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
   testing::BatchArrays<S> a(n, nv);
@@ -45,8 +51,13 @@ testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
 // kernel options (the build's shape) stay as they are. Where the robot's kernel arranges the
 // arithmetic otherwise (its lean working set), the two kernels' roundings in f32 arithmetic differ
 // by more than the tolerance on ill-conditioned states (iiwa14: 0.14 apart on an entry of -72.0,
-// where each is within 0.11 of f64), so each state's largest error against the generic kernel in
-// f64 is compared instead: at most twice the generic f32 kernel's plus the tolerance.
+// where each is within 0.11 of f64), so each kernel's error against the generic kernel in f64 is
+// compared instead, by the f32 bounds the suite holds the kernels to against the core
+// (Comparison::within_bounds): each state's largest error within 4 times the generic f32
+// kernel's or 1e-3 of the state's largest entry, and over a batch the median of those relative
+// errors within twice the generic kernel's or 1e-4. A state's ratio alone says little: on the
+// host, the two arrangements' errors on 60 seeds' states are the same on geometric mean (1.02 to
+// 1.04 lean over generic) and 8 to 39 times apart on single states, all within the bound.
 template <class S>
 void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
                      F32Compute f32_compute = F32Compute::kF32, bool warp = false, bool with_minv = false) {
@@ -114,6 +125,7 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
         const std::vector<S>& want = generic.out(flag);
         const std::vector<S>& got = specific.out(flag);
         const std::size_t per_state = want.size() / n;
+        std::vector<double> relative_generic, relative_specific;  // against_f64: per state, of its scale
         for (std::size_t k = 0; k < n; ++k) {
           double scale = 1;
           for (std::size_t e = k * per_state; e < (k + 1) * per_state; ++e)
@@ -131,10 +143,18 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
             error_specific = std::max(error_specific, std::abs(double(got[e]) - exact));
           }
           if (against_f64) {
-            ASSERT_LE(error_specific, 2 * error_generic + tolerance * scale)
+            ASSERT_LE(error_specific, std::max(4 * error_generic, 1e-3 * scale))
                 << where << ", output " << flag << ", state " << k << ": against f64 (generic f32 " << error_generic
-                << ")";
+                << ", the state's largest entry " << scale << ")";
+            relative_generic.push_back(error_generic / scale);
+            relative_specific.push_back(error_specific / scale);
           }
+        }
+        if (against_f64) {
+          const double median_generic = median_of(relative_generic);
+          EXPECT_LE(median_of(relative_specific), std::max(2 * median_generic, 1e-4))
+              << where << ", output " << flag << ": the states' median error against f64, of their largest entry"
+              << " (generic f32 " << median_generic << ")";
         }
       }
     }
