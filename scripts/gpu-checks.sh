@@ -21,7 +21,9 @@
 # by PROFILE_KERNEL (default the block kernel) in the benchmark PROFILE_BENCH, its NVRTC programs
 # built with source lines (RBDGRAD_CUDA_LINEINFO): its details and per-source-line pages as text
 # in the logs, summed by source line (scripts/ncu_source_summary.py, per state of PROFILE_STATES),
-# the report itself beside gpu-checks.tgz (profile.ncu-rep, if it fits the tool).
+# the report itself beside gpu-checks.tgz (profile.ncu-rep, if it fits the tool). "occupancy"
+# (only when named) runs Nsight Compute's launch and occupancy sections alone on that launch: the
+# blocks an SM holds and what limits them, in seconds where the full set takes minutes.
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo=$(cd "$here/.." && pwd)
@@ -140,9 +142,15 @@ for old in "$here"/bin/cuda_batch_bench-*; do
   step "bench-after-$rev" "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 \
     --benchmark_filter="$kernel_alone" --benchmark_out="$out/bench-after-$rev.json" --benchmark_out_format=json
 done
+ncu=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
+profile_bench=${PROFILE_BENCH:-cuda_pipeline/1chunks/pinned/f64/talos_reduced/N65536/}
+if [[ $steps == *" occupancy "* ]]; then
+  # the launch after the benchmark's first (which sizes the buffers), as profile's
+  step occupancy "$ncu" --section LaunchStats --section Occupancy -k "regex:${PROFILE_KERNEL:-block_fused}" \
+    --launch-skip 1 --launch-count 1 "$here/bin/cuda_batch_bench" --benchmark_min_time=0.01 \
+    --benchmark_filter="$profile_bench"
+fi
 if [[ $steps == *" profile "* ]]; then
-  ncu=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
-  profile_bench=${PROFILE_BENCH:-cuda_pipeline/1chunks/pinned/f64/talos_reduced/N65536/}
   # the launch after the benchmark's first (which sizes the buffers); the embedded headers' names
   # found under the source tree's device folder
   RBDGRAD_CUDA_LINEINFO=1 step profile "$ncu" --set full --import-source yes \
