@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "../support/error_statistics.hpp"
 #include "../support/test_models.hpp"
 #include "rbdgrad/algorithm/fd_derivatives.hpp"
 #include "rbdgrad/algorithm/rnea_derivatives.hpp"
@@ -23,15 +24,8 @@ struct ErrorStats {
   int failures = 0;  // states whose computation returned an error
   std::string first_failure;
 
-  double median(int k) const {
-    std::vector<double> v = per_output[k];
-    if (v.empty()) return 0;
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  }
-  double worst(int k) const {
-    return per_output[k].empty() ? 0 : *std::max_element(per_output[k].begin(), per_output[k].end());
-  }
+  double median(int k) const { return testing::median_of(per_output[k]); }
+  double worst(int k) const { return testing::worst_of(per_output[k]); }
 };
 
 io::StateFile read_reference(const std::string& robot) {

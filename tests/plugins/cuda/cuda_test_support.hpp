@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "../../support/error_statistics.hpp"
 #include "../../support/test_models.hpp"
 #include "../support/core_reference.hpp"
 #include "../support/output_cases.hpp"
@@ -147,12 +148,8 @@ struct Comparison {
   // the core in f64 on the same inputs, next to the core f32's own error there)
   std::vector<double> error[8], error_vs_f64[8], core_f32_error[8];
 
-  static double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  }
-  static double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
+  static double median(const std::vector<double>& v) { return median_of(v); }
+  static double worst(const std::vector<double>& v) { return worst_of(v); }
 
   // f64: within 1e-10 of the core everywhere. f32: as accurate as the core's f32 against f64 on
   // the same inputs, with the core's f32 bounds (median 1e-4, worst 1e-3) as the floor, since the

@@ -15,6 +15,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "../../support/error_statistics.hpp"
 #include "../../support/test_models.hpp"
 #include "../support/plugin_harness.hpp"
 #include "cuda_instance.hpp"
@@ -27,12 +28,6 @@ using ::testing::HasSubstr;
 
 constexpr std::uint32_t kGradient =
     RBDGRAD_OUTPUT_QDD | RBDGRAD_OUTPUT_MINV | RBDGRAD_OUTPUT_DQDD_DQ | RBDGRAD_OUTPUT_DQDD_DQD;
-
-// the middle of v (the upper of the two middles for an even size)
-double median_of(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 template <class S>
 testing::BatchArrays<S> random_states(int nv, std::size_t n, unsigned seed) {
@@ -151,8 +146,8 @@ void compare_kernels(CudaInstance& instance, const std::string& robot, int nv,
           }
         }
         if (against_f64) {
-          const double median_generic = median_of(relative_generic);
-          EXPECT_LE(median_of(relative_specific), std::max(2 * median_generic, 1e-4))
+          const double median_generic = testing::median_of(relative_generic);
+          EXPECT_LE(testing::median_of(relative_specific), std::max(2 * median_generic, 1e-4))
               << where << ", output " << flag << ": the states' median error against f64, of their largest entry"
               << " (generic f32 " << median_generic << ")";
         }

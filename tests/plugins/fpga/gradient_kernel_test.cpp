@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../../support/error_statistics.hpp"
 #include "../../support/test_models.hpp"
 #include "kernel/gradient_kernel.hpp"
 #include "kernel/robot_constants.hpp"
@@ -25,12 +26,8 @@ constexpr int kMaxNv = 32;
 struct Errors {
   std::vector<double> dq, dqd;  // relative Frobenius error per computed state
   int overflowed = 0;           // states flagged out of range
-  static double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  }
-  static double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
+  static double median(const std::vector<double>& v) { return testing::median_of(v); }
+  static double worst(const std::vector<double>& v) { return testing::worst_of(v); }
 };
 
 double relative_error(const std::vector<double>& got, const std::vector<double>& ref) {
