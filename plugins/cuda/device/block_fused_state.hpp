@@ -587,9 +587,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // -M^-1 dtau for rows 8 p .. 8 p + 7 of column j (item t = p n + j, so that a warp's lanes
   // write consecutive entries of its rows): the eight rows share each load of dtau, and their
   // eight sums are independent chains. A row outside j's block (M^-1 computed here) gives zero.
-  // Eight rows an item where there were four: 1.5% (f64) and 2.0% (f32 batches) off the kernel
-  // at 65536 talos_reduced states, whose shared-memory pipe bounds it (run 125, H100; at 64
-  // registers without spills).
+  // Eight rows an item where there were four: half the loads of dtau a product, 1.5% (f64) and
+  // 2.0% (f32 batches) off the kernel at 65536 talos_reduced states, whose busiest unit is the
+  // shared-memory pipe (runs 124 and 125, H100; at 64 registers without spills).
   constexpr int kProductRows = 8;
   const int product_items = (n + kProductRows - 1) / kProductRows * n;
   auto minus_product_rows = [&](const S* dtau, int t, IO* out) {
