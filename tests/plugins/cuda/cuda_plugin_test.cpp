@@ -524,7 +524,7 @@ void check_reference(const std::string& robot) {
         ASSERT_TRUE(got.allFinite()) << robot << " " << field << " (" << c.name << ")" << " state " << k;
         errors.push_back(relative_error(got, Eigen::Map<const Eigen::VectorXd>(ref.data(), static_cast<Eigen::Index>(per))));
       }
-      const double median = Comparison::median(errors), worst = Comparison::worst(errors);
+      const double median = median_of(errors), worst = worst_of(errors);
       std::printf("%s %s %s (%s) median %.1e worst %.1e\n", robot.c_str(), scalar_name<S>(), field, c.name, median, worst);
       if constexpr (std::is_same_v<S, double>) {
         EXPECT_LE(worst, 1e-10) << robot << " " << field << " (" << c.name << ")";

@@ -148,9 +148,6 @@ struct Comparison {
   // the core in f64 on the same inputs, next to the core f32's own error there)
   std::vector<double> error[8], error_vs_f64[8], core_f32_error[8];
 
-  static double median(const std::vector<double>& v) { return median_of(v); }
-  static double worst(const std::vector<double>& v) { return worst_of(v); }
-
   // f64: within 1e-10 of the core everywhere. f32: as accurate as the core's f32 against f64 on
   // the same inputs, with the core's f32 bounds (median 1e-4, worst 1e-3) as the floor, since the
   // two f32 computations round differently (the GPU contracts multiply-adds into FMAs).
@@ -158,9 +155,9 @@ struct Comparison {
   bool within_bounds() const {
     for (int f = 0; f < 8; ++f) {
       if constexpr (std::is_same_v<S, double>) {
-        if (worst(error[f]) > 1e-10) return false;
+        if (worst_of(error[f]) > 1e-10) return false;
       } else {
-        if (median(error_vs_f64[f]) > std::max(1e-4, 4 * median(core_f32_error[f]))) return false;
+        if (median_of(error_vs_f64[f]) > std::max(1e-4, 4 * median_of(core_f32_error[f]))) return false;
         for (std::size_t k = 0; k < error_vs_f64[f].size(); ++k)
           if (error_vs_f64[f][k] > std::max(1e-3, 4 * core_f32_error[f][k])) return false;
       }
@@ -173,10 +170,10 @@ struct Comparison {
     s.precision(2);
     for (int f = 0; f < 8; ++f) {
       if (error[f].empty()) continue;
-      s << " " << plugin_output_name(f) << " " << std::scientific << median(error[f]) << "/" << worst(error[f]);
+      s << " " << plugin_output_name(f) << " " << std::scientific << median_of(error[f]) << "/" << worst_of(error[f]);
       if (!error_vs_f64[f].empty())
-        s << " (vs f64 " << median(error_vs_f64[f]) << "/" << worst(error_vs_f64[f]) << ", core f32 "
-          << median(core_f32_error[f]) << "/" << worst(core_f32_error[f]) << ")";
+        s << " (vs f64 " << median_of(error_vs_f64[f]) << "/" << worst_of(error_vs_f64[f]) << ", core f32 "
+          << median_of(core_f32_error[f]) << "/" << worst_of(core_f32_error[f]) << ")";
     }
     return s.str();
   }

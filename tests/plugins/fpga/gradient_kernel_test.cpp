@@ -26,8 +26,6 @@ constexpr int kMaxNv = 32;
 struct Errors {
   std::vector<double> dq, dqd;  // relative Frobenius error per computed state
   int overflowed = 0;           // states flagged out of range
-  static double median(const std::vector<double>& v) { return testing::median_of(v); }
-  static double worst(const std::vector<double>& v) { return testing::worst_of(v); }
 };
 
 double relative_error(const std::vector<double>& got, const std::vector<double>& ref) {
@@ -82,9 +80,9 @@ Errors run(const std::string& robot, bool tau_input) {
   }
   std::printf("%s %s %s input: d qdd/d q %.1e / %.1e, d qdd/d qd %.1e / %.1e (median / worst), %d of %zu states "
               "out of range\n",
-              robot.c_str(), scalar_name<T>(), tau_input ? "tau" : "qdd", Errors::median(errors.dq),
-              Errors::worst(errors.dq), Errors::median(errors.dqd), Errors::worst(errors.dqd), errors.overflowed,
-              file.states.size());
+              robot.c_str(), scalar_name<T>(), tau_input ? "tau" : "qdd", testing::median_of(errors.dq),
+              testing::worst_of(errors.dq), testing::median_of(errors.dqd), testing::worst_of(errors.dqd),
+              errors.overflowed, file.states.size());
   return errors;
 }
 
@@ -94,8 +92,8 @@ TEST_P(GradientKernel, DoubleMatchesTheReference) {
   for (const bool tau_input : {false, true}) {
     const Errors e = run<double>(GetParam(), tau_input);
     EXPECT_EQ(e.overflowed, 0);
-    EXPECT_LE(Errors::worst(e.dq), 1e-10);
-    EXPECT_LE(Errors::worst(e.dqd), 1e-10);
+    EXPECT_LE(testing::worst_of(e.dq), 1e-10);
+    EXPECT_LE(testing::worst_of(e.dqd), 1e-10);
   }
 }
 
@@ -136,8 +134,8 @@ void check_format(const std::string& robot, const FormatBound (&bounds)[N]) {
     const std::string where = robot + " " + scalar_name<T>() + (tau_input ? " tau input" : " qdd input");
     EXPECT_LE(e.overflowed, bound->out_of_range) << where;
     EXPECT_GE(e.dq.size(), 24u) << where << ": most states stay in range";
-    EXPECT_LE(Errors::worst(e.dq), bound->dq) << where;
-    EXPECT_LE(Errors::worst(e.dqd), bound->dqd) << where;
+    EXPECT_LE(testing::worst_of(e.dq), bound->dq) << where;
+    EXPECT_LE(testing::worst_of(e.dqd), bound->dqd) << where;
   }
 }
 
