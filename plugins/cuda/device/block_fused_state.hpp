@@ -23,7 +23,7 @@
 
 #include "block_articulated_body.hpp"
 #include "block_stages.hpp"
-#include "exchange_step.hpp"
+#include "block_mass_inverse.hpp"
 #include "fused_state.hpp"
 
 namespace rbdgrad::cuda {
@@ -112,24 +112,6 @@ template <class Model>
 RBDGRAD_HD auto divider_for(int n) {
   if constexpr (FixedSizes<Model>::nv > 0) return FixedDivider<FixedSizes<Model>::nv>{};
   else return Divider(n);
-}
-
-// How far the segments of row m of a block of `size` columns (row-major, `size` apart) are turned
-// so that a wavefront's lanes, on consecutive rows and the same column offset, meet different
-// banks. A wavefront spans the banks once (16 doubles, 32 floats: L scalars); rows `size` apart
-// repeat their bank every P = L / gcd(size, L) rows, so that L consecutive rows put g =
-// gcd(size, L) of them on each bank: those are turned 0, 1, ..., g - 1 columns apart (distinct
-// where the segments a row are a multiple of g: talos_reduced's torso, g = 4, at 4 or 8 a row).
-template <class S>
-RBDGRAD_HD int bank_skew(int m, int size) {
-  constexpr int kLog2Lanes = sizeof(S) == 8 ? 4 : 5;  // a wavefront's scalars: 128 bytes
-#if defined(__CUDA_ARCH__)
-  const int zeros = __ffs(size) - 1;
-#else
-  const int zeros = __builtin_ctz(static_cast<unsigned>(size));
-#endif
-  const int log2_g = zeros < kLog2Lanes ? zeros : kLog2Lanes;
-  return (m >> (kLog2Lanes - log2_g)) & ((1 << log2_g) - 1);
 }
 
 // Components of the spatial cross products, the operands read in place (element e of x at
@@ -527,11 +509,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     to[stride * i + x] = s0 + s1;
   });
   g.sync();
-  // per body: Ic S, Bc^T S, E = 2 Ic alpha + Bc S; c = tau(qdd = 0) = S . F
-  g.for_each(7 * n, [&](int t) {
+  // per body: Ic S, Bc^T S, E = 2 Ic alpha + Bc S; f64 from tau: u = tau - c, c = tau(qdd = 0) =
+  // S . F, in place (qdd = M^-1 (tau - c) below; f32 has qdd from the articulated-body pass)
+  const bool qdd_by_inverse = !SinglePrecision<S>::value && b.tau_input;
+  g.for_each(qdd_by_inverse ? 7 * n : 6 * n, [&](int t) {
     if (t >= 6 * n) {
       const int i = t - 6 * n;
-      w.c[i] = dot6(w.axis + 6 * i, w.F + 6 * i);
+      w.u[i] -= dot6(w.axis + 6 * i, w.F + 6 * i);
       return;
     }
     const int i = t / 6, c = t % 6;
@@ -544,20 +528,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     } else {
       w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
       if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
-    }
-  });
-  g.sync();
-  // M entry by entry: (a, b) with a ancestor-or-self of b gives column b's entry in row a and row
-  // b's entry in column a; entries of unrelated joints are zero
-  g.for_each(n * n, [&](int t) {
-    const int a = by_n.quotient(t), bb = t - a * n;
-    if (unstored(a, bb)) return;
-    if (m.contains(a, bb)) {
-      const S mass = dot6(w.axis + 6 * a, w.Ic_S + 6 * bb);
-      w.M[row_at(a) + bb] = mass;
-      w.M[row_at(bb) + a] = mass;
-    } else if (!m.contains(bb, a)) {
-      w.M[kPacked ? row_at(a) + bb : t] = S(0);
     }
   });
   g.sync();
@@ -651,23 +621,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   };
   const int dqd_fill_items = want_dqd ? n * n : 0;
 
-  // M^-1 by exchange (Gauss-Jordan) steps, in place in M. The pivots go leaves first, as the
-  // core's factorization M = L^T D L does: the pivot of joint k is then D[k] (the Schur complement
-  // of the joints after it), so a state fails at the same joint for the same reason
-  // (factorize_mass_matrix).
-  // M is block diagonal over the roots' subtrees (ModelView::root_of), and so is M^-1: each step
-  // runs within the blocks, the blocks' steps side by side (step s takes each block's (s+1)-th
-  // joint from its end as pivot), and the entries between blocks stay zero. The steps' pivot rows
-  // and columns are kept aside (snapshots, taken in the step before) so that every entry is
-  // updated in place with one sync a step. A thread takes a segment of one row: the row's block
-  // bounds and the pivot's reciprocal once for its entries. The lanes of a warp take consecutive
-  // rows, whose entries in one column are a block's size apart: where that size shares factors
-  // with the banks a wavefront spans, the rows' segments start at columns skewed by the row
-  // (block::bank_skew), so that the lanes hit different banks.
-  // The pivots are kept (in B, free since the subtree sums; lean: their own); the thread that meets
-  // one that is not positive flags it (group_max: the core's order checks the last joint first),
-  // and the state's status is set once at the end, so that no serial check sits on the steps'
-  // critical path.
+  // M^-1 into M's matrix (block_mass_inverse.hpp: by the articulated-body recursion, M itself is
+  // never formed), a pass a tree level, the first of which also fills d tau/d qd, then a pass of a
+  // thread a column; or the caller's M^-1, read by every thread.
   if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
@@ -675,77 +631,27 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       if (t < n * n) inverse[t] = static_cast<S>(minv[t]);
       else fill_dtau_dqd(t - n * n);
     });
-    g.sync();
   } else {
-    // the snapshots: pivot row and column of each block's step, per joint (the blocks' index
-    // ranges are disjoint), two of each so that a step writes the next one's
-    S* const snapshot_row = kLean ? w.snapshots : w.B + n;
-    S* const snapshot_col = kLean ? w.snapshots + 2 * n : w.B + 3 * n;
-    g.for_each(n + dqd_fill_items, [&](int t) {
-      if (t >= n) {
-        fill_dtau_dqd(t - n);
+    articulated_axes(m, w.axis, w.Ic_S, w.IA_S, pivots, w.failed_pivot, g, dqd_fill_items, fill_dtau_dqd);
+    // (dense: the entries between blocks, zero)
+    const int zero_items = kPacked ? 0 : n * n;
+    g.for_each(n + zero_items, [&](int t) {
+      if (t < n) {
+        inverse_column(m, w.axis, w.IA_S, pivots, inverse, row_at, t);
         return;
       }
-      const int last = block_end(t) - 1;
-      snapshot_row[t] = w.M[row_at(last) + t];
-      snapshot_col[t] = w.M[row_at(t) + last];
+      const int e = t - n, i = by_n.quotient(e);
+      if (m.root_of[i] != m.root_of[e - i * n]) inverse[e] = S(0);
     });
-    int steps = 0;
-    for (int k = m.level_start[0]; k < m.level_start[1]; ++k) {
-      const int root = m.level_joints[k];
-      const int size = m.subtree_end[root] - root;
-      if (size > steps) steps = size;
-    }
-    g.sync();
-    // threads a row: the largest power of two the group allows, so that a thread's segment and
-    // its columns' are a mask away (a run-time division by g.size / n was about 4,000 warp
-    // instructions a state and 6% of the stall samples, Nsight Compute, run 117)
-    int segments = 1;
-    while (2 * segments * n <= g.size) segments *= 2;
-    const int segment_mask = segments - 1;
-    for (int step = 0; step < steps; ++step) {
-      const S* const row = snapshot_row + (step & 1) * n;
-      const S* const col = snapshot_col + (step & 1) * n;
-      S* const next_row = snapshot_row + ((step + 1) & 1) * n;
-      S* const next_col = snapshot_col + ((step + 1) & 1) * n;
-      g.for_each(n * segments, [&](int t) {
-        const int i = by_n.remainder(t), first = block_begin(i), end = block_end(i), pv = end - 1 - step;
-        if (pv < first) return;  // the block's steps are done
-        const S pivot = row[pv], r = S(1) / pivot, a_ip = col[i];
-        S* const Ai = inverse + row_at(i);
-        // this thread's columns: those whose offset from the block's first is its segment,
-        // skewed, modulo segments (rows are the block's size apart where packed, else n)
-        const int skew = kPacked ? block::bank_skew<S>(i - first, end - first) : block::bank_skew<S>(i, n);
-        const int segment = (by_n.quotient(t) + skew) & segment_mask;
-        // the pivot's own thread keeps it and flags it, outside the loop
-        const auto holds = [&](int j) { return ((j - first) & segment_mask) == segment; };
-        if (i == pv && holds(pv)) keep_pivot(pivots, w.failed_pivot, pv, pivot);
-        // every entry as off the pivot's column (exchange_step.hpp), that one put right after
-        // the loop, and the next step's pivot column read back after it: no compares and
-        // selects an entry
-        const ExchangeRow<S> factors = exchange_row(i, pv, a_ip, r);
-        for (int j = first + segment; j < end; j += segments) {
-          const S x = factors.u * row[j] + factors.s * Ai[j];
-          Ai[j] = x;
-          if (i == pv - 1) next_row[j] = x;
-        }
-        if (holds(pv)) {
-          const S x = pivot_column_entry(i, pv, a_ip, r);
-          Ai[pv] = x;
-          if (i == pv - 1) next_row[pv] = x;
-        }
-        if (pv - 1 >= first && holds(pv - 1)) next_col[i] = Ai[pv - 1];
-      });
-      g.sync();
-    }
   }
+  g.sync();
   // the columns of M^-1 that row i of a product with it needs: row i's block, or every column
   // for a caller's M^-1 (whose entries between blocks are the caller's)
   auto inverse_begin = [&](int i) { return minv_supplied ? 0 : block_begin(i); };
   auto inverse_end = [&](int i) { return minv_supplied ? n : block_end(i); };
-  // f64: qdd = M^-1 (tau - c) (f32 has it from the articulated-body pass), in one pass with the
-  // product of d tau/d qd
-  const int qdd_items = !SinglePrecision<S>::value && b.tau_input ? n : 0;
+  // f64: qdd = M^-1 (tau - c) (u holds tau - c; f32 has qdd from the articulated-body pass), in
+  // one pass with the product of d tau/d qd
+  const int qdd_items = qdd_by_inverse ? n : 0;
   const int dqd_product_items = want_dqd ? product_items : 0;
   if (qdd_items + dqd_product_items > 0) {
     g.for_each(qdd_items + dqd_product_items, [&](int t) {
@@ -754,7 +660,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         return;
       }
       S s = S(0);
-      for (int j = inverse_begin(t); j < inverse_end(t); ++j) s += inverse[inverse_row(t) + j] * (w.u[j] - w.c[j]);
+      for (int j = inverse_begin(t); j < inverse_end(t); ++j) s += inverse[inverse_row(t) + j] * w.u[j];
       w.qdd[t] = s;
     });
     g.sync();

@@ -69,7 +69,8 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
   const int matrix_scalars = kFixedMatrixScalars > 0 ? kFixedMatrixScalars
                              : kCompact              ? global_model.matrix_scalars
                                                      : nv * nv;
-  const BlockMatrices matrices{matrix_scalars, kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv};
+  const BlockMatrices matrices{matrix_scalars, kCompact && batch.minv == nullptr ? matrix_scalars : nv * nv,
+                               batch.minv != nullptr};
   S* base = reinterpret_cast<S*>(shared + block_model_bytes<S>(nv, kCompact)) +
             threadIdx.y * BlockWorkspace<S>::scalars(nv, with_aba, matrices, kLean);
   const BlockWorkspace<S> w(base, nv, with_aba, matrices, kLean);

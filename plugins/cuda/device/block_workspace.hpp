@@ -24,12 +24,14 @@ RBDGRAD_HD constexpr int symmetric_index(int r, int c) {
 // Scalars of a state's d tau/d u (matrix) and M, M^-1 (minv): nv x nv each, or (the compact kernel,
 // block_kernel_entry.hpp) packed by the roots' blocks, ModelView::matrix_scalars of them, except
 // a caller's M^-1, which stays dense.
+// minv_supplied: the caller's M^-1, which the inversion's arrays are not needed for.
 struct BlockMatrices {
   int matrix = 0, minv = 0;
+  bool minv_supplied = false;
 };
 RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact, bool minv_supplied) {
   const int dense = nv * nv, matrix = compact ? packed_scalars : dense;
-  return {matrix, compact && !minv_supplied ? matrix : dense};
+  return {matrix, compact && !minv_supplied ? matrix : dense, minv_supplied};
 }
 
 // Two layouts. Both: d tau/d qd and d tau/d q share one matrix (each product with M^-1 follows its
@@ -38,36 +40,39 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
 // The default (three states of talos_reduced an SM, or four compact): f and E sit where the local
 // placements were (dead after the inertias), h in F until the subtree sums, the external forces
 // where Bc will be (without the articulated-body pass, which reads them later), the inversion's
-// pivots and snapshots and the d/dq stage's vectors (beta, a_qdd, Dq) in B (dead after the subtree
-// sums), the total subtree force in F, in place; B and Bc whole (6x6, kBodyMatrixStride apart).
+// pivots, the d/dq stage's vectors (beta, a_qdd, Dq) and the inversion's IA S in B (dead after the
+// subtree sums), the total subtree force in F, in place; B and Bc whole (6x6, kBodyMatrixStride
+// apart).
 //
 // The lean layout (`lean`, the compact kernel's option: eight states of talos_reduced an SM at 128
-// threads a state, 26.1 KiB of working set each): I, Ic, B's and Bc's symmetric parts (B_sym,
+// threads a state, 26.4 KiB of working set each): I, Ic, B's and Bc's symmetric parts (B_sym,
 // Bc_sym) by their nine parameters (inertia_parameters.hpp; Ic's mass in Ic_mass, I's the model's,
 // the rates' zero), B's and Bc's antisymmetric parts by h and hc (block_fused_state.hpp), and
 // every array placed by its lifetime. The passes of block_fused_state.hpp, numbered, and what each
 // array lives through (written .. last read):
 //   1 local placements   2 world placements   3 axes, com, Icw, f_ext   4 I, v   5 alpha, h
 //   6 a   7 f, B, beta's part known before qdd   8 subtree sums (Ic, Ic_mass, Bc, hc, F)
-//   9 Ic S, Bc^T S, E, c   10 M   11 the inversion (and d tau/d qd)   12 qdd, d tau/d qd's product
-//   13 a_qdd   14 beta, F_total   15 Dq   16 d tau/d q   17 outputs
-// Live from the subtree sums on (or from their first write, passes 3..17 at most): u, qdd, the
+//   9 Ic S, Bc^T S, E, u = tau - c   10 the inversion (M^-1 without M, and d tau/d qd)
+//   11 qdd, d tau/d qd's product   12 a_qdd   13 beta, F_total   14 Dq   15 d tau/d q   16 outputs
+// Live from the subtree sums on (or from their first write, passes 3..16 at most): u, qdd, the
 // pivots, Ic_mass, axis, alpha, beta, Ic, Bc_sym, hc, F (F_total in place), Ic S and Bc^T S, 64
 // scalars a joint. I, v and a are not: beta's part before qdd is taken in pass 7 and F_total's
 // part due to qdd by Ic and Ic S (block_fused_state.hpp), so they die in passes 7 and 8. The
 // others take turns in what those hold before they are written, and in a region X made of a
-// spare region T (11 scalars a joint) and the two matrices after it, free until M is written
-// (10): q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in Ic S; v (4..7)
-// in hc; a (6..7) in F; f_ext (3..7) in Bc_sym; in X: R (2..3) at 0, p (2..4) at 9 n, I (4..8) at
-// 12 n, B_sym (7..8) at 21 n, h (5..8) at 0, f (7..8) at 6 n (30 scalars a joint, T made longer
-// where the matrices are smaller); in T then: E (9..11) at 0, c (9..12) at 6 n, the inversion's
-// snapshots (11) at 7 n, a_qdd (13..14) at 0, Dq (15..16) at 0.
-// The f32 articulated-body pass (with_aba, after pass 10) reads R, p, qd, v and f_ext: those then
+// spare region T (12 scalars a joint) and the two matrices after it, free until M^-1 and d tau/d qd
+// are written (10): q (0..1), p_local/com (1..4) in F; R_local/Icw (1..4) in Ic; qd (0..6) in
+// Ic S; v (4..7) in hc; a (6..7) in F; f_ext (3..7) in Bc_sym; in X: R (2..3) at 0, p (2..4) at
+// 9 n, I (4..8) at 12 n, B_sym (7..8) at 21 n, h (5..8) at 0, f (7..8) at 6 n (30 scalars a joint,
+// T made longer where the matrices are smaller); in T then: E (9..10) at 0, the inversion's IA S
+// (10) at 6 n (not with the caller's M^-1, whose T is 6 scalars a joint), a_qdd (12..13) at 0, Dq
+// (14..15) at 0.
+// The f32 articulated-body pass (with_aba, after pass 9) reads R, p, qd, v and f_ext: those then
 // get arrays of their own, with the pass's own.
 template <class S>
 struct BlockWorkspace {
-  // per joint vectors (nv): inputs, qdd, c = tau(qdd = 0)
-  S *q, *qd, *u, *qdd, *c;
+  // per joint vectors (nv): inputs (f64 from tau: u = tau - c, c = tau(qdd = 0), from the pass
+  // before the inversion on), qdd
+  S *q, *qd, *u, *qdd;
   // per body: local and world placements (row-major 3x3 and 3-vectors)
   S *R_local, *p_local, *R, *p;
   // per body 6-vectors: axis S, velocity, alpha = v_parent x S, acceleration (qdd = 0), beta,
@@ -84,8 +89,8 @@ struct BlockWorkspace {
   // nv x nv row-major, or packed by the roots' blocks (the compact kernel): M (M^-1 after the
   // inversion, in place, or the caller's, always dense); d tau/d qd, then d tau/d q, in one matrix
   S *M, *dtau_dq, *dtau_dqd;
-  // the inversion's pivots (nv), and its snapshots of pivot rows and columns (4 nv)
-  S *pivots, *snapshots;
+  // the inversion's pivots (nv: 1/D, block_mass_inverse.hpp) and U = IA S (6 nv)
+  S *pivots, *IA_S;
   // articulated-body pass about the joint points (f32 only, null otherwise): inertia about the
   // joint point, articulated inertia, what a body passes to its parent (6x6 then 6), bias force,
   // U = IA S, c = alpha qd about the joint point, acceleration, d = S^T U and u = tau - S^T pA
@@ -94,27 +99,31 @@ struct BlockWorkspace {
   // when an output is not finite
   std::uint32_t *failed_pivot, *not_finite;
 
-  // the default layout: the scalars before the d/dq stage's vectors in B (pivots and snapshots)
-  static constexpr int kInversionScalarsPerJoint = 5;
-  static_assert(kInversionScalarsPerJoint + 3 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors fit in B");
+  // the default layout: the scalars before the d/dq stage's vectors in B (the pivots), and IA S
+  // after them
+  static constexpr int kInversionScalarsPerJoint = 1;
+  static_assert(kInversionScalarsPerJoint + 4 * 6 <= kBodyMatrixStride, "the d/dq stage's vectors and IA S fit in B");
   // (enumerators, not static members: NVRTC would emit those as unused globals)
   enum : int {
     // scalars a joint of the default layout, and of the articulated-body pass's arrays (f_ext's
     // among them)
-    kScalarsPerJoint = 5 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride,
+    kScalarsPerJoint = 4 + 24 + 42 + 2 * kSymmetricStride + 2 * kBodyMatrixStride,
     kAbaScalarsPerJoint = 146,
     // the lean layout's: live from the subtree sums on, the spare region T, the region X (T and
     // the two matrices) that the passes before the subtree sums need, and with the
     // articulated-body pass R, p, qd and v (19) besides the pass's arrays
     kLeanLiveScalarsPerJoint = 64,
-    kLeanSpareScalarsPerJoint = 11,
+    kLeanSpareScalarsPerJoint = 12,
+    kLeanSpareScalarsPerJointWithCallersInverse = 6,
     kLeanEarlyScalarsPerJoint = 30,
     kLeanAbaScalarsPerJoint = 19 + kAbaScalarsPerJoint,
   };
-  // the lean layout's T: 11 scalars a joint, more where X (T and the matrices) would be shorter
-  // than the early arrays need
+  // the lean layout's T: 12 scalars a joint (6, E's, with the caller's M^-1), more where X (T and
+  // the matrices) would be shorter than the early arrays need
   static RBDGRAD_HD int lean_spare_scalars(int nv, BlockMatrices matrices) {
-    const int spare = kLeanSpareScalarsPerJoint * nv, early = kLeanEarlyScalarsPerJoint * nv;
+    const int per_joint =
+        matrices.minv_supplied ? kLeanSpareScalarsPerJointWithCallersInverse : kLeanSpareScalarsPerJoint;
+    const int spare = per_joint * nv, early = kLeanEarlyScalarsPerJoint * nv;
     const int with_matrices = spare + matrices.matrix + matrices.minv;
     return with_matrices >= early ? spare : early - matrices.matrix - matrices.minv;
   }
@@ -136,7 +145,7 @@ struct BlockWorkspace {
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
       : next_(base) {
-    if (lean) take_lean(nv, lean_spare_scalars(nv, matrices));
+    if (lean) take_lean(nv, lean_spare_scalars(nv, matrices), !matrices.minv_supplied);
     else take_default(nv);
     // (the lean layout's X: T, then these two)
     M = take(matrices.minv);
@@ -171,7 +180,7 @@ struct BlockWorkspace {
   // the arrays before the matrices, in each layout (the comment above)
   RBDGRAD_HD void take_default(int n) {
     // arrays rather than initializer lists: device code has no std::initializer_list
-    S** const vectors[] = {&q, &qd, &u, &qdd, &c};
+    S** const vectors[] = {&q, &qd, &u, &qdd};
     for (S** x : vectors) *x = take(n);
     R_local = take(9 * n);
     p_local = take(3 * n);
@@ -188,15 +197,14 @@ struct BlockWorkspace {
     Bc = take(kBodyMatrixStride * n);
     Ic_mass = B_sym = Bc_sym = hc = nullptr;  // the lean layout's
     pivots = B;
-    snapshots = B + n;
-    S** const late_sixes[] = {&beta, &a_qdd, &Dq};
-    for (int k = 0; k < 3; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
+    S** const late_sixes[] = {&beta, &a_qdd, &Dq, &IA_S};
+    for (int k = 0; k < 4; ++k) *late_sixes[k] = B + (kInversionScalarsPerJoint + 6 * k) * n;
     F_total = F;
     f_ext = Bc;  // with the articulated-body pass, which reads them later, an array of their own
   }
   // (with the articulated-body pass R, p, qd, v and f_ext get arrays of their own after the
   // matrices, which follow T: X)
-  RBDGRAD_HD void take_lean(int n, int spare_scalars) {
+  RBDGRAD_HD void take_lean(int n, int spare_scalars, bool inversion) {
     u = take(n);
     qdd = take(n);
     pivots = take(n);
@@ -229,8 +237,7 @@ struct BlockWorkspace {
     h = early;
     f = early + 6 * n;
     E = spare;
-    c = spare + 6 * n;
-    snapshots = spare + 7 * n;
+    IA_S = inversion ? spare + 6 * n : nullptr;
     a_qdd = spare;
     Dq = spare;
   }

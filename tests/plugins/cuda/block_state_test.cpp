@@ -12,7 +12,6 @@
 
 #include <cstdio>
 #include <cstring>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -117,35 +116,6 @@ void check_robot(const std::string& robot) {
           << where << ": the lean working set with the items in reverse order, as 128 threads";
     }
   }
-}
-
-// The inversion's row segments (block_fused_state.hpp): the 16 lanes of a half warp on 16
-// consecutive rows of a block, each at the first column of its segment (the same segment for
-// all, as a warp's lanes have), reach 16 different banks of doubles (8 bytes, 16 a wavefront)
-// where the segments are a multiple of gcd(size, 16): a block of 20 columns (talos_reduced's
-// torso) repeats its bank every 4 rows, and 4 or 8 segments a row turn those apart.
-TEST(BlockStateOnHost, BankSkewSpreadsAHalfWarpsRowsOverTheBanks) {
-  for (const int size : {20, 21, 12, 28, 17, 36, 24}) {
-    for (const int segments : {4, 8}) {
-      if (size == 24 && segments == 4) continue;  // gcd 8: 4 segments turn 4 of its 8 rows a bank
-      for (int m0 = 0; m0 + 16 <= size; ++m0) {
-        for (int q = 0; q < segments; ++q) {
-          std::set<int> banks;
-          for (int m = m0; m < m0 + 16; ++m)
-            banks.insert((size * m + (q + cuda::block::bank_skew<double>(m, size)) % segments) % 16);
-          EXPECT_EQ(banks.size(), 16u) << "block of " << size << ", " << segments << " segments, rows from " << m0
-                                       << ", segment " << q;
-        }
-      }
-    }
-  }
-  // odd sizes hit every bank unturned
-  EXPECT_EQ(cuda::block::bank_skew<double>(15, 21), 0);
-  EXPECT_EQ(cuda::block::bank_skew<float>(31, 21), 0);
-  // 32 floats a wavefront: a block of 20 repeats every 8 rows, 4 rows a bank
-  EXPECT_EQ(cuda::block::bank_skew<float>(7, 20), 0);
-  EXPECT_EQ(cuda::block::bank_skew<float>(8, 20), 1);
-  EXPECT_EQ(cuda::block::bank_skew<float>(32, 20), 0);
 }
 
 TEST(BlockStateOnHost, DividerIsExactForEveryIndexOfAPass) {

@@ -39,11 +39,11 @@ std::size_t talos_block_bytes(Build build, bool minv_supplied = false) {
 
 TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
   const cuda::SmLimits sm = h200();
-  // the other kernel: 73.8 KiB a block, three an SM, no cap needed (ptxas takes 66 registers)
-  EXPECT_EQ(talos_block_bytes(Build::kDense), 73760u);
+  // the other kernel: 73.5 KiB a block, three an SM, no cap needed (ptxas takes 66 registers)
+  EXPECT_EQ(talos_block_bytes(Build::kDense), 73504u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kDense), 256), 3);
-  // compact: 912 bytes of the tree and 55,440 of working set (M and d tau/d u 472 scalars each)
-  EXPECT_EQ(talos_block_bytes(Build::kCompact), 912u + 55440u);
+  // compact: 912 bytes of the tree and 55,184 of working set (M^-1 and d tau/d u 472 scalars each)
+  EXPECT_EQ(talos_block_bytes(Build::kCompact), 912u + 55184u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kCompact), 256), 4);
   // 4 blocks of 8 warps: 8 warps on each of the 4 sub-partitions, 16K registers each
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kCompact), 256), 64);
@@ -54,10 +54,10 @@ TEST(RegisterCap, TheCompactKernelFitsFourTalosStatesAnSm) {
 
 TEST(RegisterCap, TheLeanWorkingSetFitsEightTalosStatesAnSmAt128Threads) {
   const cuda::SmLimits sm = h200();
-  // 912 bytes of the tree and 26,768 of working set (75 scalars a joint, M and d tau/d u 472
-  // scalars each, two status words): eight blocks by shared memory (8 x (27,680 + 1,024) =
-  // 229,632 of 233,472 bytes)
-  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 26768u);
+  // 912 bytes of the tree and 27,024 of working set (76 scalars a joint, M^-1 and d tau/d u 472
+  // scalars each, two status words): eight blocks by shared memory (8 x (27,936 + 1,024) =
+  // 231,680 of 233,472 bytes)
+  EXPECT_EQ(talos_block_bytes(Build::kLean), 912u + 27024u);
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 128), 8);
   // eight blocks of 4 warps: 8 warps a sub-partition, 64 registers
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 128), 64);
@@ -126,13 +126,13 @@ TEST(RegisterCap, CompactWorkingSetPacksOnlyBetweenBlocks) {
     const std::size_t dense = cuda::block_state_scalars(flat.host_view(), true, false, false);
     const std::size_t compact = cuda::block_state_scalars(flat.host_view(), true, false, true);
     EXPECT_EQ(dense - compact, 2u * static_cast<std::size_t>(n * n - flat.matrix_scalars)) << robot;
-    // the compact working set: 187 scalars a joint, the two matrices and two status words; the
-    // lean one: 64 a joint, a spare region of 11 a joint (more where it and the two matrices would
-    // be fewer than the 30 a joint that the passes before the subtree sums need: iiwa14's 11 n + 2
-    // x 49 = 175 < 210), the matrices and the status words
+    // the compact working set: 186 scalars a joint, the two matrices and two status words; the
+    // lean one: 64 a joint, a spare region of 12 a joint (more where it and the two matrices would
+    // be fewer than the 30 a joint that the passes before the subtree sums need: iiwa14's 12 n + 2
+    // x 49 = 182 < 210), the matrices and the status words
     const std::size_t nn = static_cast<std::size_t>(n), matrices = 2u * static_cast<std::size_t>(flat.matrix_scalars);
-    const std::size_t spare = std::max(11 * nn, 30 * nn > matrices ? 30 * nn - matrices : 0);
-    EXPECT_EQ(compact, 187 * nn + matrices + 2) << robot;
+    const std::size_t spare = std::max(12 * nn, 30 * nn > matrices ? 30 * nn - matrices : 0);
+    EXPECT_EQ(compact, 186 * nn + matrices + 2) << robot;
     EXPECT_EQ(cuda::block_state_scalars(flat.host_view(), true, false, true, true), 64 * nn + spare + matrices + 2)
         << robot;
   }
