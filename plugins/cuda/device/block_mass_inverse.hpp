@@ -4,7 +4,7 @@
 // on the way up or down the tree: a pass a tree level for the articulated inertias' U = IA S and
 // D, then one in which a thread carries a column of M^-1 as a 6-vector in registers along the
 // tree (talos_reduced: 11 synced passes where M and its inversion by exchange steps took 22, one
-// a joint of the largest block; 6.3% off the kernel at 65536 states, run 127).
+// a joint of the largest block; 3.4% off the kernel at 65536 f64 states, 4.1% f32, runs 128-129).
 #pragma once
 
 #include "model_view.hpp"
@@ -42,7 +42,9 @@ RBDGRAD_HD void articulated_axes(const Model& m, const S* axis, const S* Ic_S, S
       S u = IcSi[r];
       S d = Si[0] * IcSi[0];
       for (int c = 1; c < 6; ++c) d += Si[c] * IcSi[c];
-      // (not unrolled: unrolled, its loads' registers made the talos_reduced kernel spill at 64)
+      // Not unrolled: unrolled, its loads' registers made the talos_reduced kernel spill at its 64
+      // (a thread a joint, unrolled and spilling, measured 3% faster, runs 127 and 129; S_i read
+      // again each term so as not to spill, 9% slower, run 129: docs/benchmarks/cuda.md)
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
