@@ -4,8 +4,8 @@
 // accelerations are prefix sums of per-joint terms, found by scanning the joints before it with
 // the ancestor test, whose loads do not wait on each other as a walk up the parent chain does) or
 // over its subtree (a contiguous index range in depth-first order). The columns of dc'/du and of
-// M^-1 are found in parallel. Only the inversion of M (one exchange step per joint) and, in f32,
-// the articulated-body pass (one step per tree level) are serial. The working set stays in shared
+// M^-1 are found in parallel. Only M^-1's articulated inertias (block_mass_inverse.hpp) and, in
+// f32, the articulated-body pass for qdd go a tree level a pass. The working set stays in shared
 // memory.
 //
 // The math is that of fused_state.hpp (the one-thread kernel): the same passes, algorithms and
@@ -535,7 +535,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if (b.tau_input) block_articulated_body(m, w, fext != nullptr, g);
   }
 
-  // M^-1 (in place in M, or the caller's), the inversion's pivots, and row i's block of M (below)
+  // M^-1 (computed here into M's matrix, or the caller's), the inversion's pivots, and row i's
+  // block (below)
   S* const inverse = w.M;
   // (in the default layout as B's offsets: the same code as before the lean layout was added)
   S* const pivots = kLean ? w.pivots : w.B;

@@ -15,8 +15,8 @@
 // - the columns of M, d tau/d qd and d tau/d q as products of the joints' rows of vectors, masked
 //   by the tree (an entry is one product or another as its row is an ancestor or a descendant of
 //   its column's joint), on the FP64 tensor cores (WarpLanes::tree_product);
-// - M^-1 by the block kernel's exchange steps, a column per lane, in the same pivot order, so that
-//   a state fails at the same joint for the same reason; where the model type fixes at most 8
+// - M^-1 by exchange (Gauss-Jordan) steps, a column per lane, pivots in the order of the core's
+//   factorization M = L^T D L, so that a state fails at the same joint for the same reason; where the model type fixes at most 8
 //   joints, by a factorization M = U D U^T with the same pivots, in every lane (which reads M's
 //   upper triangle only, so M's product keeps its up term only);
 // - the products -M^-1 dc'/du through shared memory, on the FP64 tensor cores (WarpLanes::product);
