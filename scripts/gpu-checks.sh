@@ -32,7 +32,7 @@ out=$(mktemp -d)
 mkdir -p "$result"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 sanitize=${1:-'*LeanKernel*:*CompactKernel*'}
-bench=${2-'cuda_pipeline/1chunks(-dense|-full|-192|-256)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
+bench=${2-'cuda_pipeline/1chunks(-dense|-full|-96|-192|-256)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
 failed=0
 step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last lines here
   local name=$1 status=0

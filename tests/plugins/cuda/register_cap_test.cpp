@@ -61,6 +61,10 @@ TEST(RegisterCap, TheLeanWorkingSetFitsEightTalosStatesAnSmAt128Threads) {
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 128), 8);
   // eight blocks of 4 warps: 8 warps a sub-partition, 64 registers
   EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 128), 64);
+  // at 96 threads a state (the benchmark's cuda_pipeline/1chunks-96) eight blocks of 3 warps: 6 a
+  // sub-partition, 80 registers
+  EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 96), 8);
+  EXPECT_EQ(cuda::block_register_cap(sm, talos_block_bytes(Build::kLean), 96), 80);
   // at 256 threads a state eight blocks (16 warps a sub-partition) would need 32 registers, seven
   // 36: no cap, and the registers decide (ptxas takes 80: three blocks)
   EXPECT_EQ(cuda::blocks_by_shared_memory(sm, talos_block_bytes(Build::kLean), 256), 8);
