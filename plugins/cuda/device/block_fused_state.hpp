@@ -538,8 +538,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // M^-1 (computed here into M's matrix, or the caller's), the inversion's pivots, and row i's
   // block (below)
   S* const inverse = w.M;
-  // (in the default layout as B's offsets: the same code as before the lean layout was added)
-  S* const pivots = kLean ? w.pivots : w.B;
+  S* const pivots = w.pivots;
   auto block_begin = [&](int i) { return m.root_of[i]; };
   auto block_end = [&](int i) { return m.subtree_end[m.root_of[i]]; };
 
