@@ -4,8 +4,9 @@
 // d qdd/d q and d qdd/d qd). With the bytes a state moves through device memory, that gives the
 // floor under the kernel's time at N states: max(FLOPs / peak FLOP/s, bytes / bandwidth).
 // Usage: cuda_flop_count [N [peak_f64_tflops peak_f32_tflops bandwidth_tb_s]]
-// (defaults: 65536 states; the H200 of docs/benchmarks/cuda.md: 132 SMs at 1.98 GHz with 64 FP64
-// and 128 FP32 FMA lanes each, 33.4 and 66.9 TFLOP/s; HBM3e 4.8 TB/s).
+// (defaults: 65536 states; the H100 SXM of the anchors and of docs/benchmarks/cuda.md's runs: 132
+// SMs at 1.98 GHz with 64 FP64 and 128 FP32 FMA lanes each, 33.4 and 66.9 TFLOP/s; HBM3 3.35 TB/s.
+// An H200 has the same SMs and 4.8 TB/s: `cuda_flop_count 65536 33.4 66.9 4.8`).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -112,7 +113,7 @@ int main(int argc, char** argv) {
   const double states = argc > 1 ? std::atof(argv[1]) : 65536;
   const double peak_f64 = (argc > 2 ? std::atof(argv[2]) : 33.4) * 1e12;
   const double peak_f32 = (argc > 3 ? std::atof(argv[3]) : 66.9) * 1e12;
-  const double bandwidth = (argc > 4 ? std::atof(argv[4]) : 4.8) * 1e12;
+  const double bandwidth = (argc > 4 ? std::atof(argv[4]) : 3.35) * 1e12;
   std::printf("| robot | precision | adds | multiplies | divides | sin/cos | FLOPs per state | bytes per state "
               "| floor at N = %.0f (us) | bound by |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
               states);
