@@ -608,9 +608,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // its columns t / n, t / n + G, ... of its block (of every column where dense), G the group's
   // threads over n: a thread keeps its row's vectors in registers, and the lanes of a warp
   // (consecutive rows) read the same column's vectors at once (broadcasts), where an item an entry
-  // read both vectors of each product (7.0% off the kernel at 65536 f64 talos_reduced states, 7.8%
-  // f32, run 131, H100). The columns before r (its ancestors among them), then from r on (its
-  // subtree's first).
+  // read both vectors of each product (9.3% off the kernel at 65536 f64 talos_reduced states, 9.7%
+  // f32 batches, run 132, H100). The columns before r (its ancestors among them), then from r on
+  // (its subtree's first).
   const int row_groups = g.size / n > 1 ? g.size / n : 1;
   const int row_items = n * row_groups;
   auto fill_dtau_dqd = [&](int t) {
