@@ -25,6 +25,7 @@
 #include "block_stages.hpp"
 #include "block_mass_inverse.hpp"
 #include "fused_state.hpp"
+#include "scalar_pairs.hpp"
 
 namespace rbdgrad::cuda {
 
@@ -235,6 +236,26 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   };
   // the same for M^-1: a caller's stays dense
   const auto inverse_row = [&](int i) { return minv_supplied ? i * n : row_at(i); };
+  // the lean layout's 6-vectors (and M^-1 computed here) read as pairs (scalar_pairs.hpp): into a
+  // thread's registers, and in a product with a vector a thread holds (a column's, read by the
+  // lanes of a warp at once)
+  constexpr bool kPairs = kLean;
+  const auto load6 = [&](const S* p, S(&x)[6]) {
+    if constexpr (kPairs) {
+      load_six(p, x);
+    } else {
+      for (int k = 0; k < 6; ++k) x[k] = p[k];
+    }
+  };
+  const auto dot6_with = [&](const S* held, const S* p) {
+    if constexpr (kPairs) {
+      S x[6];
+      load_six(p, x);
+      return dot6(held, x);
+    } else {
+      return dot6(held, p);
+    }
+  };
   // (a, b) in different blocks: not stored where packed
   const auto unstored = [&](int a, int bb) { return kPacked && m.root_of[a] != m.root_of[bb]; };
   // (I x)_c and (Ic x)_c of body i: by the upper triangles, or (lean) by the parameters
@@ -583,10 +604,25 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     const int r_end = minv_supplied || (row0 < end && row0 + kProductRows > first) ? end : first;
     if constexpr (kPacked) {
       // column j of the block, (end - first) apart from row to row
+      const int size = end - first;
       const S* const dtau_j = dtau + row_at(first) + j;
-      for (int r = first; r < r_end; ++r) {
-        const S x = dtau_j[(r - first) * (end - first)];
-        for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x;
+      // M^-1's rows two entries a load (the same products in the same order) where the block's
+      // rows start at even offsets: the block's at an even offset and of even size (talos_reduced's
+      // three); the lanes of a warp read the same entries (broadcasts)
+      const bool pairs = kPairs && !minv_supplied && ((row_at(first) + first) & 1) == 0 && (size & 1) == 0;
+      for (int r = first; r < r_end; r += pairs ? 2 : 1) {
+        const S x0 = dtau_j[(r - first) * size];
+        if (pairs) {
+          const S x1 = dtau_j[(r + 1 - first) * size];
+          for (int k = 0; k < kProductRows; ++k) {
+            S a0, a1;
+            load_pair(rows[k] + r, a0, a1);
+            s[k] += a0 * x0;
+            s[k] += a1 * x1;
+          }
+        } else {
+          for (int k = 0; k < kProductRows; ++k) s[k] += rows[k][r] * x0;
+        }
       }
     } else {
       for (int r = first; r < r_end; ++r) {
@@ -619,23 +655,22 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     int c = (kPacked ? block_begin(r) : 0) + c0;
     {
       S IcSr[6], BcSr[6];
-      for (int x = 0; x < 6; ++x) {
-        IcSr[x] = S(2) * w.Ic_S[6 * r + x];
-        BcSr[x] = w.Bc_t_S[6 * r + x];
-      }
+      load6(w.Ic_S + 6 * r, IcSr);
+      load6(w.Bc_t_S + 6 * r, BcSr);
+      for (int x = 0; x < 6; ++x) IcSr[x] *= S(2);
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
       for (; c < r; c += row_groups)
-        row[c] = r < m.subtree_end[c] ? dot6(IcSr, w.alpha + 6 * c) + dot6(BcSr, w.axis + 6 * c) : S(0);
+        row[c] = r < m.subtree_end[c] ? dot6_with(IcSr, w.alpha + 6 * c) + dot6_with(BcSr, w.axis + 6 * c) : S(0);
     }
     S Sr[6];
-    for (int x = 0; x < 6; ++x) Sr[x] = w.axis[6 * r + x];
+    load6(w.axis + 6 * r, Sr);
     const int end = kPacked ? block_end(r) : n, r_end = m.subtree_end[r];
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
-    for (; c < end; c += row_groups) row[c] = c < r_end ? dot6(Sr, w.E + 6 * c) : S(0);
+    for (; c < end; c += row_groups) row[c] = c < r_end ? dot6_with(Sr, w.E + 6 * c) : S(0);
   };
   // d tau/d q's in two passes: the columns before r in Dq's (they do not need Dq), the rest after
   // it; and before r one of the row's vectors at a time (in one pass and with both, as d tau/d
@@ -645,31 +680,32 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     S* const row = w.dtau_dq + row_at(r);
     const int c_first = (kPacked ? block_begin(r) : 0) + c0;
     S v[6];
-    for (int x = 0; x < 6; ++x) v[x] = w.Ic_S[6 * r + x];
-#if defined(__CUDA_ARCH__)
-#pragma unroll 1
-#endif
-    for (int c = c_first; c < r; c += row_groups) row[c] = r < m.subtree_end[c] ? dot6(v, w.beta + 6 * c) : S(0);
-    for (int x = 0; x < 6; ++x) v[x] = w.Bc_t_S[6 * r + x];
+    load6(w.Ic_S + 6 * r, v);
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
     for (int c = c_first; c < r; c += row_groups)
-      if (r < m.subtree_end[c]) row[c] += dot6(v, w.alpha + 6 * c);
+      row[c] = r < m.subtree_end[c] ? dot6_with(v, w.beta + 6 * c) : S(0);
+    load6(w.Bc_t_S + 6 * r, v);
+#if defined(__CUDA_ARCH__)
+#pragma unroll 1
+#endif
+    for (int c = c_first; c < r; c += row_groups)
+      if (r < m.subtree_end[c]) row[c] += dot6_with(v, w.alpha + 6 * c);
   };
   auto fill_dtau_dq_subtree = [&](int t) {
     const int c0 = by_n.quotient(t), r = t - c0 * n;
     S* const row = w.dtau_dq + row_at(r);
     const int end = kPacked ? block_end(r) : n, r_end = m.subtree_end[r];
     S v[6];
-    for (int x = 0; x < 6; ++x) v[x] = w.axis[6 * r + x];
+    load6(w.axis + 6 * r, v);
     // the first of the item's columns at or after r (no integer division)
     int c = (kPacked ? block_begin(r) : 0) + c0;
     while (c < r) c += row_groups;
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
-    for (; c < end; c += row_groups) row[c] = c < r_end ? dot6(v, w.Dq + 6 * c) : S(0);
+    for (; c < end; c += row_groups) row[c] = c < r_end ? dot6_with(v, w.Dq + 6 * c) : S(0);
   };
   const int dqd_fill_items = want_dqd ? row_items : 0;
 
@@ -684,12 +720,12 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       else fill_dtau_dqd(t - n * n);
     });
   } else {
-    articulated_axes(m, w.axis, w.Ic_S, w.IA_S, pivots, w.failed_pivot, g, dqd_fill_items, fill_dtau_dqd);
+    articulated_axes<kPairs>(m, w.axis, w.Ic_S, w.IA_S, pivots, w.failed_pivot, g, dqd_fill_items, fill_dtau_dqd);
     // (dense: the entries between blocks, zero)
     const int zero_items = kPacked ? 0 : n * n;
     g.for_each(n + zero_items, [&](int t) {
       if (t < n) {
-        inverse_column(m, w.axis, w.IA_S, pivots, inverse, row_at, t);
+        inverse_column<kPairs>(m, w.axis, w.IA_S, pivots, inverse, row_at, t);
         return;
       }
       const int e = t - n, i = by_n.quotient(e);

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "model_view.hpp"
+#include "scalar_pairs.hpp"
 #include "thread_group.hpp"
 
 namespace rbdgrad::cuda {
@@ -26,7 +27,8 @@ namespace rbdgrad::cuda {
 // joint first, so the largest failing joint is the one reported).
 // The first pass (the deepest level's) also runs extra(t) for t in [0, extra_items): work of the
 // group's that is independent of this.
-template <class S, class Model, class Extra>
+// kPairs: axis and IA_S read two scalars a load (scalar_pairs.hpp; the lean layout aligns them).
+template <bool kPairs, class S, class Model, class Extra>
 RBDGRAD_HD void articulated_axes(const Model& m, const S* axis, const S* Ic_S, S* IA_S, S* pivots,
                                  std::uint32_t* failed, const ThreadGroup& g, int extra_items, const Extra& extra) {
   for (int level = m.levels - 1; level >= 0; --level) {
@@ -50,8 +52,17 @@ RBDGRAD_HD void articulated_axes(const Model& m, const S* axis, const S* Ic_S, S
 #endif
       for (int k = i + 1; k < m.subtree_end[i]; ++k) {
         const S* Uk = IA_S + 6 * k;
-        S s = Uk[0] * Si[0];
-        for (int c = 1; c < 6; ++c) s += Uk[c] * Si[c];
+        S s;
+        if constexpr (kPairs) {
+          S U[6], Sv[6];
+          load_six(Uk, U);
+          load_six(Si, Sv);
+          s = U[0] * Sv[0];
+          for (int c = 1; c < 6; ++c) s += U[c] * Sv[c];
+        } else {
+          s = Uk[0] * Si[0];
+          for (int c = 1; c < 6; ++c) s += Uk[c] * Si[c];
+        }
         const S sd = s * pivots[k];
         u -= Uk[r] * sd;
         d -= s * sd;
@@ -75,22 +86,31 @@ RBDGRAD_HD void articulated_axes(const Model& m, const S* axis, const S* Ic_S, S
 // a_parent the joint before's a where it is the parent, else (a branch starts) the sum of S_k qdd_k
 // over the parent's ancestors-or-self, the same adds in the same order. The lanes of a warp that
 // take the columns of one block read the same joint's constants at once (broadcasts) and write
-// consecutive entries of a row.
-template <class S, class Model, class RowAt>
+// consecutive entries of a row. kPairs: as articulated_axes.
+template <bool kPairs, class S, class Model, class RowAt>
 RBDGRAD_HD void inverse_column(const Model& m, const S* axis, const S* IA_S, const S* pivots, S* inverse,
                                const RowAt& row_at, int j) {
   const int first = m.root_of[j], end = m.subtree_end[first];
   S F[6];
   for (int c = 0; c < 6; ++c) F[c] = S(0);
   S delta = S(1);
+  // a joint's 6-vector into registers, as pairs where aligned
+  const auto load6 = [](const S* p, S(&x)[6]) {
+    if constexpr (kPairs) {
+      load_six(p, x);
+    } else {
+      for (int c = 0; c < 6; ++c) x[c] = p[c];
+    }
+  };
   for (int i = j; i >= first; i = m.parent[i]) {
-    const S* Si = axis + 6 * i;
-    const S* Ui = IA_S + 6 * i;
+    S v[6];
+    load6(axis + 6 * i, v);
     S s = delta;
-    for (int c = 0; c < 6; ++c) s -= Si[c] * F[c];
+    for (int c = 0; c < 6; ++c) s -= v[c] * F[c];
     const S x = s * pivots[i];
     inverse[row_at(i) + j] = x;
-    for (int c = 0; c < 6; ++c) F[c] += Ui[c] * x;
+    load6(IA_S + 6 * i, v);
+    for (int c = 0; c < 6; ++c) F[c] += v[c] * x;
     delta = S(0);
   }
   S a[6];
@@ -102,16 +122,20 @@ RBDGRAD_HD void inverse_column(const Model& m, const S* axis, const S* IA_S, con
       for (int k = first; k <= par; ++k) {
         if (!m.contains(k, par)) continue;
         const S x = inverse[row_at(k) + j];
-        for (int c = 0; c < 6; ++c) a[c] += axis[6 * k + c] * x;
+        S v[6];
+        load6(axis + 6 * k, v);
+        for (int c = 0; c < 6; ++c) a[c] += v[c] * x;
       }
     }
-    const S* Ui = IA_S + 6 * i;
-    S s = Ui[0] * a[0];
-    for (int c = 1; c < 6; ++c) s += Ui[c] * a[c];
+    S v[6];
+    load6(IA_S + 6 * i, v);
+    S s = v[0] * a[0];
+    for (int c = 1; c < 6; ++c) s += v[c] * a[c];
     const S part = m.contains(i, j) ? inverse[row_at(i) + j] : S(0);
     const S x = part - s * pivots[i];
     inverse[row_at(i) + j] = x;
-    for (int c = 0; c < 6; ++c) a[c] += axis[6 * i + c] * x;
+    load6(axis + 6 * i, v);
+    for (int c = 0; c < 6; ++c) a[c] += v[c] * x;
   }
 }
 

@@ -66,6 +66,10 @@ RBDGRAD_HD BlockMatrices block_matrices(int nv, int packed_scalars, bool compact
 // T made longer where the matrices are smaller); in T then: E (9..10) at 0, the inversion's IA S
 // (10) at 6 n (not with the caller's M^-1, whose T is 6 scalars a joint), a_qdd (12..13) at 0, Dq
 // (14..15) at 0.
+// Every 6-vector array of the lean layout, and M^-1 computed here, starts an even number of
+// scalars into the state's working set (the arrays before them take even counts: 4 n, 6 n, 9 n
+// twice, the spare region 12 n or 30 n less two equal matrices), and the states are an even number
+// of scalars apart (scalars()): the block kernel reads them as pairs (scalar_pairs.hpp).
 // The f32 articulated-body pass (with_aba, after pass 9) reads R, p, qd, v and f_ext: those then
 // get arrays of their own, with the pass's own.
 template <class S>
@@ -137,8 +141,12 @@ struct BlockWorkspace {
     const int per_joint = lean ? kLeanLiveScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
                                : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
     const std::size_t spare = lean ? static_cast<std::size_t>(lean_spare_scalars(nv, matrices)) : 0;
-    return static_cast<std::size_t>(per_joint) * n + spare + static_cast<std::size_t>(matrices.matrix) +
-           static_cast<std::size_t>(matrices.minv) + kStatusScalars;
+    const std::size_t scalars = static_cast<std::size_t>(per_joint) * n + spare +
+                                static_cast<std::size_t>(matrices.matrix) + static_cast<std::size_t>(matrices.minv) +
+                                kStatusScalars;
+    // the lean layout's states an even number of scalars apart, so that each state's arrays keep
+    // the pairs' alignment (scalar_pairs.hpp)
+    return lean ? (scalars + 1) / 2 * 2 : scalars;
   }
 
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba)

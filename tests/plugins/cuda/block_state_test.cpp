@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../../support/test_models.hpp"
@@ -228,6 +229,35 @@ TEST(BlockStateOnHost, MatrixRowsPackTheBlocks) {
       EXPECT_EQ(m.matrix_scalars, 49);
       for (int i = 0; i < m.nv; ++i) EXPECT_EQ(m.matrix_row[i], 7 * i);
     }
+  }
+}
+
+// The lean working set's 6-vector arrays and M^-1 computed in it start at even offsets, and its
+// states are an even number of scalars apart: the block kernel reads them two scalars a load
+// (scalar_pairs.hpp), which needs a pair's first scalar aligned to two. For odd and even nv, with
+// and without the caller's M^-1 and the f32 articulated-body pass's arrays. (The host runs also
+// abort on a misaligned pair, but they run one state a buffer.)
+TEST(BlockStateOnHost, LeanLayoutAlignsThePairs) {
+  for (const char* robot : {"iiwa14", "panda", "talos_reduced", "hyq", "random_tree", "wide_tree"}) {
+    const Model model = robot_model(robot);
+    const cuda::FlatModel<double> flat(model);
+    for (const bool minv_supplied : {false, true})
+      for (const bool with_aba : {false, true}) {
+        const cuda::BlockMatrices matrices = cuda::block_matrices(model.nv, flat.matrix_scalars, true, minv_supplied);
+        const std::size_t scalars = cuda::BlockWorkspace<double>::scalars(model.nv, with_aba, matrices, true);
+        const std::string where = std::string(robot) + (minv_supplied ? ", the caller's M^-1" : "") +
+                                  (with_aba ? ", with the articulated-body pass" : "");
+        EXPECT_EQ(scalars % 2, 0u) << where << ": " << scalars << " scalars a state";
+        std::vector<double> shared(scalars);
+        const cuda::BlockWorkspace<double> w(shared.data(), model.nv, with_aba, matrices, true);
+        const std::pair<const char*, const double*> paired[] = {
+            {"axis", w.axis}, {"alpha", w.alpha}, {"beta", w.beta}, {"E", w.E},      {"Dq", w.Dq},
+            {"Ic_S", w.Ic_S}, {"Bc_t_S", w.Bc_t_S}, {"IA_S", w.IA_S}, {"M^-1", minv_supplied ? nullptr : w.M}};
+        for (const auto& [name, at] : paired) {
+          if (at == nullptr) continue;
+          EXPECT_EQ((at - shared.data()) % 2, 0) << where << ": " << name << " at " << (at - shared.data());
+        }
+      }
   }
 }
 

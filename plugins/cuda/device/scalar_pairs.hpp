@@ -1,0 +1,50 @@
+// Two scalars a shared-memory load. The block kernel's busiest unit is the shared-memory pipe
+// (docs/benchmarks/cuda.md), and many of its reads are broadcasts: the lanes of a warp read the
+// same 6-vector (a column's in d tau/d u's rows, a joint's in M^-1's passes) or the same row of
+// M^-1, and a broadcast costs one wavefront a load whatever its width. Read as pairs (a 16-byte
+// load in f64, 8 in f32), such a vector costs half the wavefronts and half the instructions (5.9%
+// off the kernel at 65536 f64 talos_reduced states, 5.0% f32 batches: run 136, H100). The
+// pair must start at an even index of an array aligned to two scalars: the lean working set
+// (block_workspace.hpp) places its 6-vector arrays and M^-1 so. On the host (the tests) the pair
+// is two plain reads, and a misaligned pair aborts, so that a layout that breaks the rule fails
+// there too.
+#pragma once
+
+#include "spatial.hpp"
+
+#if !defined(__CUDA_ARCH__)
+#include <cstdint>
+#include <cstdlib>
+#endif
+
+namespace rbdgrad::cuda {
+
+// p[0] and p[1] into a and b; p aligned to 2 sizeof(S)
+template <class S>
+RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
+#if defined(__CUDA_ARCH__)
+  if constexpr (sizeof(S) == sizeof(double)) {
+    const double2 v = *reinterpret_cast<const double2*>(p);
+    a = v.x;
+    b = v.y;
+  } else {
+    const float2 v = *reinterpret_cast<const float2*>(p);
+    a = v.x;
+    b = v.y;
+  }
+#else
+  if (reinterpret_cast<std::uintptr_t>(p) % (2 * sizeof(S)) != 0) std::abort();
+  a = p[0];
+  b = p[1];
+#endif
+}
+
+// the 6-vector at p (aligned to 2 sizeof(S)) into x, as three pairs
+template <class S>
+RBDGRAD_HD void load_six(const S* p, S (&x)[6]) {
+  load_pair(p, x[0], x[1]);
+  load_pair(p + 2, x[2], x[3]);
+  load_pair(p + 4, x[4], x[5]);
+}
+
+}  // namespace rbdgrad::cuda
