@@ -608,7 +608,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S* const dtau_j = dtau + row_at(first) + j;
       // M^-1's rows two entries a load (the same products in the same order) where the block's
       // rows start at even offsets: the block's at an even offset and of even size (talos_reduced's
-      // three); the lanes of a warp read the same entries (broadcasts)
+      // three; r_end - first, the size or zero, is then even); the lanes of a warp read the same
+      // entries (broadcasts). One loop for both forms: as two loops, or pairs and a tail, ptxas
+      // spilled talos_reduced's kernel at its 64 registers.
       const bool pairs = kPairs && !minv_supplied && ((row_at(first) + first) & 1) == 0 && (size & 1) == 0;
       for (int r = first; r < r_end; r += pairs ? 2 : 1) {
         const S x0 = dtau_j[(r - first) * size];
