@@ -4,7 +4,7 @@
 # daemon's results through the plugin (`rbdgrad compute --backend cuda` on the reference states of
 # iiwa14 and talos_reduced, f64 and f32, against the reference), compute-sanitizer's memcheck and
 # racecheck on the tests given, the benchmarks given, and the earlier commits' default kernel
-# against this one's where the bundle has them. Prints each step's
+# against this one's where the bundle has them (their kernel_us medians printed). Prints each step's
 # last lines; its logs and the benchmarks' JSON go to $OUT/gpu-checks.tgz (one file: the device
 # tool brings back 8 at most; $OUT defaults to ./gpu-checks-out). A step that fails is said so and
 # the next one still runs; the exit status is 1 if any failed.
@@ -136,6 +136,11 @@ fi
 # earlier commits' benchmark (gpu-bundle.sh REV): the default kernel alone at 65536 talos_reduced
 # states, this bundle's again after each, so that a drift of the machine shows
 kernel_alone='cuda_pipeline/1chunks/pinned/f(32|64)/talos_reduced/N65536/'
+# the kernel's own time (the kernel_us counter, CUDA events) of each median in a benchmark log:
+# the real_time column is end to end, mostly copies
+kernel_medians() {
+  awk '/_median/ { k = "?"; for (i = 1; i <= NF; i++) if ($i ~ /^kernel_us=/) k = substr($i, 11); print "   ", $1, "kernel_us", k }' "$1"
+}
 for old in "$here"/bin/cuda_batch_bench-*; do
   [[ $steps == *" revs "* && -e "$old" ]] || continue
   rev=${old##*-}
@@ -143,6 +148,9 @@ for old in "$here"/bin/cuda_batch_bench-*; do
     --benchmark_out="$out/bench-$rev.json" --benchmark_out_format=json
   step "bench-after-$rev" "$here/bin/cuda_batch_bench" --benchmark_min_time=0.05 \
     --benchmark_filter="$kernel_alone" --benchmark_out="$out/bench-after-$rev.json" --benchmark_out_format=json
+  echo "== kernel alone: $rev, then this bundle's ($(tr '\n' ' ' <"$here/commit"))"
+  kernel_medians "$out/bench-$rev.log"
+  kernel_medians "$out/bench-after-$rev.log"
 done
 ncu=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
 profile_bench=${PROFILE_BENCH:-cuda_pipeline/1chunks/pinned/f64/talos_reduced/N65536/}
