@@ -240,20 +240,14 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // thread's registers, and in a product with a vector a thread holds (a column's, read by the
   // lanes of a warp at once)
   constexpr bool kPairs = kLean;
-  const auto load6 = [&](const S* p, S(&x)[6]) {
-    if constexpr (kPairs) {
-      load_six(p, x);
-    } else {
-      for (int k = 0; k < 6; ++k) x[k] = p[k];
-    }
-  };
+  const auto load6 = [](const S* p, S(&x)[6]) { load_six<kPairs>(p, x); };
   const auto dot6_with = [&](const S* held, const S* p) {
     if constexpr (kPairs) {
       S x[6];
-      load_six(p, x);
+      load6(p, x);
       return dot6(held, x);
     } else {
-      return dot6(held, p);
+      return dot6(held, p);  // (the other layouts' code as it was: through x, ptxas emits another)
     }
   };
   // (a, b) in different blocks: not stored where packed

@@ -52,17 +52,11 @@ RBDGRAD_HD void articulated_axes(const Model& m, const S* axis, const S* Ic_S, S
 #endif
       for (int k = i + 1; k < m.subtree_end[i]; ++k) {
         const S* Uk = IA_S + 6 * k;
-        S s;
-        if constexpr (kPairs) {
-          S U[6], Sv[6];
-          load_six(Uk, U);
-          load_six(Si, Sv);
-          s = U[0] * Sv[0];
-          for (int c = 1; c < 6; ++c) s += U[c] * Sv[c];
-        } else {
-          s = Uk[0] * Si[0];
-          for (int c = 1; c < 6; ++c) s += Uk[c] * Si[c];
-        }
+        S U[6], Sv[6];
+        load_six<kPairs>(Uk, U);
+        load_six<kPairs>(Si, Sv);
+        S s = U[0] * Sv[0];
+        for (int c = 1; c < 6; ++c) s += U[c] * Sv[c];
         const S sd = s * pivots[k];
         u -= Uk[r] * sd;
         d -= s * sd;
@@ -94,14 +88,7 @@ RBDGRAD_HD void inverse_column(const Model& m, const S* axis, const S* IA_S, con
   S F[6];
   for (int c = 0; c < 6; ++c) F[c] = S(0);
   S delta = S(1);
-  // a joint's 6-vector into registers, as pairs where aligned
-  const auto load6 = [](const S* p, S(&x)[6]) {
-    if constexpr (kPairs) {
-      load_six(p, x);
-    } else {
-      for (int c = 0; c < 6; ++c) x[c] = p[c];
-    }
-  };
+  const auto load6 = [](const S* p, S(&x)[6]) { load_six<kPairs>(p, x); };
   for (int i = j; i >= first; i = m.parent[i]) {
     S v[6];
     load6(axis + 6 * i, v);

@@ -39,12 +39,17 @@ RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
 #endif
 }
 
-// the 6-vector at p (aligned to 2 sizeof(S)) into x, as three pairs
-template <class S>
+// the 6-vector at p into x: as three pairs (kPairs, p aligned to 2 sizeof(S)), else a scalar a
+// load (the layouts that do not align their vectors)
+template <bool kPairs, class S>
 RBDGRAD_HD void load_six(const S* p, S (&x)[6]) {
-  load_pair(p, x[0], x[1]);
-  load_pair(p + 2, x[2], x[3]);
-  load_pair(p + 4, x[4], x[5]);
+  if constexpr (kPairs) {
+    load_pair(p, x[0], x[1]);
+    load_pair(p + 2, x[2], x[3]);
+    load_pair(p + 4, x[4], x[5]);
+  } else {
+    for (int k = 0; k < 6; ++k) x[k] = p[k];
+  }
 }
 
 }  // namespace rbdgrad::cuda
