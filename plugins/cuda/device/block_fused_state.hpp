@@ -144,6 +144,18 @@ RBDGRAD_HD S cross_force_at(const S* m, int sm, const S* f, int sf, int c) {
   const S second = cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, r);
   return angular ? first + second : first;
 }
+// Components r and 3 + r (r < 3) of the two above at once (unit strides), for an item that
+// takes both: the terms each component's select keeps, in the same order.
+template <class S>
+RBDGRAD_HD void cross_motion_pair(const S* m1, const S* m2, int r, S& angular, S& linear) {
+  angular = cross3_at(m1, 1, m2, 1, r);
+  linear = cross3_at(m1, 1, m2 + 3, 1, r) + cross3_at(m1 + 3, 1, m2, 1, r);
+}
+template <class S>
+RBDGRAD_HD void cross_force_pair(const S* m, const S* f, int r, S& angular, S& linear) {
+  angular = cross3_at(m, 1, f, 1, r) + cross3_at(m + 3, 1, f + 3, 1, r);
+  linear = cross3_at(m, 1, f + 3, 1, r);
+}
 // (m x* A(:, k))_c of a symmetric A (its upper triangle at A), as cross_force_at on a column
 template <class S>
 RBDGRAD_HD S cross_force_column_at(const S* m, const S* A, int k, int c) {
@@ -261,6 +273,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kLean) return block::inertia_row_dot(w.Ic, i, c, x, w.Ic_mass[i]);
     else return symmetric_row_dot(w.Ic, i, c, x);
   };
+  // the lean layout's passes over a body's components take two an item, r and 3 + r (r < 3): the
+  // products' angular and linear rows share their loads, and the selects that an item a component
+  // needed go (rows_item: the item's body and r)
+  const auto Ic_rows = [&](int i, int r, const S* x, S& angular, S& linear) {
+    block::parameter_rows_dot<true>(w.Ic, i, r, x, w.Ic_mass[i], angular, linear);
+  };
+  const auto Bc_sym_rows = [&](int i, int r, const S* x, S& angular, S& linear) {
+    block::parameter_rows_dot<false>(w.Bc_sym, i, r, x, S(0), angular, linear);
+  };
+  constexpr int kComponentsPerItem = kLean ? 2 : 1;
+  const int component_items = 6 / kComponentsPerItem * n;
   // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
   // (lean) or the 36 of the matrix
   constexpr int kBodyEntries = kLean ? kInertiaParameterStride : 36;
@@ -422,10 +445,21 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   g.sync();
   // alpha = v_parent x S (v x S qd = v_parent x S qd since S x S = 0), and the momentum h = I v
   // (in F until the subtree sums, in the default layout)
-  g.for_each(6 * n, [&](int t) {
-    const int i = t / 6, c = t % 6, par = m.parent[i];
-    w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
-    w.h[t] = I_row(i, c, w.v + 6 * i);
+  g.for_each(component_items, [&](int t) {
+    if constexpr (kLean) {
+      const int i = t / 3, r = t - 3 * i, par = m.parent[i];
+      const int a = 6 * i + r, l = a + 3;
+      if (par < 0) {
+        w.alpha[a] = w.alpha[l] = S(0);
+      } else {
+        block::cross_motion_pair(w.v + 6 * par, w.axis + 6 * i, r, w.alpha[a], w.alpha[l]);
+      }
+      block::parameter_rows_dot<true>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
+    } else {
+      const int i = t / 6, c = t % 6, par = m.parent[i];
+      w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);
+      w.h[t] = I_row(i, c, w.v + 6 * i);
+    }
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
@@ -446,24 +480,41 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // The lean layout also takes beta's part known before qdd here (for the d/dq stage), a_parent x
   // S + v_parent x alpha (gravity, v = 0 at the root), so that v and a die with this pass (beta =
   // that + a_qdd_parent x S, below).
-  const int beta_items = kLean && want_dq ? 6 * n : 0;
-  g.for_each((6 + kBodyEntries) * n + beta_items, [&](int t) {
-    if (t < 6 * n) {
-      const int i = t / 6, c = t % 6;
-      const S Ia = I_row(i, c, w.a + 6 * i);
-      w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
+  const int beta_items = kLean && want_dq ? component_items : 0;
+  g.for_each(component_items + kBodyEntries * n + beta_items, [&](int t) {
+    if (t < component_items) {
+      if constexpr (kLean) {
+        const int i = t / 3, r = t - 3 * i;
+        const int a = 6 * i + r, l = a + 3;
+        S Ia[2], vh[2];
+        block::parameter_rows_dot<true>(w.I, i, r, w.a + 6 * i, m.mass[i], Ia[0], Ia[1]);
+        block::cross_force_pair(w.v + 6 * i, w.h + 6 * i, r, vh[0], vh[1]);
+        w.f[a] = Ia[0] + (vh[0] - (fext ? w.f_ext[a] : S(0)));
+        w.f[l] = Ia[1] + (vh[1] - (fext ? w.f_ext[l] : S(0)));
+      } else {
+        const int i = t / 6, c = t % 6;
+        const S Ia = I_row(i, c, w.a + 6 * i);
+        w.f[t] = Ia + (cross_force_at(w.v + 6 * i, 1, w.h + 6 * i, 1, c) - (fext ? w.f_ext[t] : S(0)));
+      }
       return;
     }
-    if (kLean && t < 6 * n + beta_items) {
-      const int beta_item = t - 6 * n, i = beta_item / 6, c = beta_item % 6, par = m.parent[i];
-      // (no local copy of a_parent: one indexed at run time went to local memory)
+    if (kLean && t < component_items + beta_items) {
+      const int beta_item = t - component_items, i = beta_item / 3, r = beta_item - 3 * i, par = m.parent[i];
+      const int a = 6 * i + r, l = a + 3;
       const S* Si = w.axis + 6 * i;
-      w.beta[beta_item] = par >= 0 ? cross_motion_at(w.a + 6 * par, 1, Si, 1, c) +
-                                         cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c)
-                                   : block::gravity_cross_at(m, Si, c);
+      if (par >= 0) {
+        S x[2], y[2];
+        block::cross_motion_pair(w.a + 6 * par, Si, r, x[0], x[1]);
+        block::cross_motion_pair(w.v + 6 * par, w.alpha + 6 * i, r, y[0], y[1]);
+        w.beta[a] = x[0] + y[0];
+        w.beta[l] = x[1] + y[1];
+      } else {
+        w.beta[a] = S(0);
+        w.beta[l] = block::gravity_cross_at(m, Si, 3 + r);
+      }
       return;
     }
-    const int e = by_n.quotient(t - 6 * n - beta_items), i = t - 6 * n - beta_items - e * n;
+    const int e = by_n.quotient(t - component_items - beta_items), i = t - component_items - beta_items - e * n;
     if constexpr (kLean) {
       w.B_sym[kInertiaParameterStride * i + e] =
           block::inertia_rate_parameter(w.I + kInertiaParameterStride * i, m.mass[i], w.v + 6 * i, e);
@@ -527,20 +578,33 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // per body: Ic S, Bc^T S, E = 2 Ic alpha + Bc S; f64 from tau: u = tau - c, c = tau(qdd = 0) =
   // S . F, in place (qdd = M^-1 (tau - c) below; f32 has qdd from the articulated-body pass)
   const bool qdd_by_inverse = !SinglePrecision<S>::value && b.tau_input;
-  g.for_each(qdd_by_inverse ? 7 * n : 6 * n, [&](int t) {
-    if (t >= 6 * n) {
-      const int i = t - 6 * n;
+  g.for_each(qdd_by_inverse ? component_items + n : component_items, [&](int t) {
+    if (t >= component_items) {
+      const int i = t - component_items;
       w.u[i] -= dot6(w.axis + 6 * i, w.F + 6 * i);
       return;
     }
-    const int i = t / 6, c = t % 6;
-    const S* Si = w.axis + 6 * i;
-    w.Ic_S[t] = Ic_row(i, c, Si);
     if constexpr (kLean) {
-      const S sym = block::rate_row_dot(w.Bc_sym, i, c, Si), anti = cross_force_at(Si, 1, w.hc + 6 * i, 1, c);
-      w.Bc_t_S[t] = sym - anti;
-      if (want_dqd) w.E[t] = S(2) * Ic_row(i, c, w.alpha + 6 * i) + (sym + anti);
+      const int i = t / 3, r = t - 3 * i;
+      const S* Si = w.axis + 6 * i;
+      S* const IcS = w.Ic_S + 6 * i;
+      S* const BcS = w.Bc_t_S + 6 * i;
+      Ic_rows(i, r, Si, IcS[r], IcS[3 + r]);
+      S sym[2], anti[2];
+      Bc_sym_rows(i, r, Si, sym[0], sym[1]);
+      block::cross_force_pair(Si, w.hc + 6 * i, r, anti[0], anti[1]);
+      BcS[r] = sym[0] - anti[0];
+      BcS[3 + r] = sym[1] - anti[1];
+      if (want_dqd) {
+        S Ic_alpha[2];
+        Ic_rows(i, r, w.alpha + 6 * i, Ic_alpha[0], Ic_alpha[1]);
+        w.E[6 * i + r] = S(2) * Ic_alpha[0] + (sym[0] + anti[0]);
+        w.E[6 * i + 3 + r] = S(2) * Ic_alpha[1] + (sym[1] + anti[1]);
+      }
     } else {
+      const int i = t / 6, c = t % 6;
+      const S* Si = w.axis + 6 * i;
+      w.Ic_S[t] = Ic_row(i, c, Si);
       w.Bc_t_S[t] = col_dot(w.Bc, i, c, Si);
       if (want_dqd) w.E[t] = S(2) * symmetric_row_dot(w.Ic, i, c, w.alpha + 6 * i) + row_dot(w.Bc, i, c, Si);
     }
@@ -761,48 +825,82 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       w.a_qdd[t] = s;
     });
     g.sync();
-    g.for_each(6 * n, [&](int t) {
-      const int i = t / 6, c = t % 6, par = m.parent[i];
+    g.for_each(component_items, [&](int t) {
       // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the
-      // root); the lean layout has the part before qdd from pass 7 (in place)
+      // root); the lean layout has the part before qdd from pass 7 (in place).
+      // F_total = F + the subtree's sum of I_j a_qdd_j. With a_qdd_j = a_qdd_parent + the sum of
+      // S_k qdd_k over k from i to j, that sum is Ic a_qdd_parent + the subtree's sum of
+      // Ic_k S_k qdd_k: from Ic and Ic S, so that I and a pass of its own are not needed (in
+      // place in F, which only this item reads). Two chains a component, as the subtree sums.
       if constexpr (kLean) {
-        if (par >= 0) w.beta[t] += cross_motion_at(w.a_qdd + 6 * par, 1, w.axis + 6 * i, 1, c);
+        const int i = t / 3, r = t - 3 * i, par = m.parent[i];
+        const int a = 6 * i + r, l = a + 3;
+        S s0[2] = {w.F[a], w.F[l]}, s1[2] = {S(0), S(0)};
+        if (par >= 0) {
+          S x[2];
+          block::cross_motion_pair(w.a_qdd + 6 * par, w.axis + 6 * i, r, x[0], x[1]);
+          w.beta[a] += x[0];
+          w.beta[l] += x[1];
+          Ic_rows(i, r, w.a_qdd + 6 * par, x[0], x[1]);
+          s0[0] += x[0];
+          s0[1] += x[1];
+        }
+        const int end = m.subtree_end[i];
+        int j = i;
+        for (; j + 1 < end; j += 2) {
+          const S q0 = w.qdd[j], q1 = w.qdd[j + 1];
+          s0[0] += w.Ic_S[6 * j + r] * q0;
+          s0[1] += w.Ic_S[6 * j + 3 + r] * q0;
+          s1[0] += w.Ic_S[6 * (j + 1) + r] * q1;
+          s1[1] += w.Ic_S[6 * (j + 1) + 3 + r] * q1;
+        }
+        if (j < end) {
+          s0[0] += w.Ic_S[6 * j + r] * w.qdd[j];
+          s0[1] += w.Ic_S[6 * j + 3 + r] * w.qdd[j];
+        }
+        w.F_total[a] = s0[0] + s1[0];
+        w.F_total[l] = s0[1] + s1[1];
       } else {
+        const int i = t / 6, c = t % 6, par = m.parent[i];
         S a_par[6];
         for (int x = 0; x < 6; ++x) a_par[x] = par < 0 ? gravity_at(m, x) : w.a[6 * par + x] + w.a_qdd[6 * par + x];
         S beta = cross_motion_at(a_par, 1, w.axis + 6 * i, 1, c);
         if (par >= 0) beta += cross_motion_at(w.v + 6 * par, 1, w.alpha + 6 * i, 1, c);
         w.beta[t] = beta;
+        S s0 = w.F[t] + (par >= 0 ? Ic_row(i, c, w.a_qdd + 6 * par) : S(0)), s1 = S(0);
+        const int end = m.subtree_end[i];
+        int j = i;
+        for (; j + 1 < end; j += 2) {
+          s0 += w.Ic_S[6 * j + c] * w.qdd[j];
+          s1 += w.Ic_S[6 * (j + 1) + c] * w.qdd[j + 1];
+        }
+        if (j < end) s0 += w.Ic_S[6 * j + c] * w.qdd[j];
+        w.F_total[t] = s0 + s1;
       }
-      // F_total = F + the subtree's sum of I_j a_qdd_j. With a_qdd_j = a_qdd_parent + the sum of
-      // S_k qdd_k over k from i to j, that sum is Ic a_qdd_parent + the subtree's sum of
-      // Ic_k S_k qdd_k: from Ic and Ic S, so that I and a pass of its own are not needed (in
-      // place in F, which only this item reads). Two chains, as the subtree sums.
-      S s0 = w.F[t] + (par >= 0 ? Ic_row(i, c, w.a_qdd + 6 * par) : S(0)), s1 = S(0);
-      const int end = m.subtree_end[i];
-      int j = i;
-      for (; j + 1 < end; j += 2) {
-        s0 += w.Ic_S[6 * j + c] * w.qdd[j];
-        s1 += w.Ic_S[6 * (j + 1) + c] * w.qdd[j + 1];
-      }
-      if (j < end) s0 += w.Ic_S[6 * j + c] * w.qdd[j];
-      w.F_total[t] = s0 + s1;
     });
     g.sync();
     // Dq = S x* F + Ic beta + Bc alpha, and d tau/d q's entries before each row's joint (which
     // do not need Dq), then the rest of d tau/d q, as d tau/d qd above
-    g.for_each(6 * n + row_items, [&](int t) {
-      if (t >= 6 * n) {
-        fill_dtau_dq_ancestors(t - 6 * n);
+    g.for_each(component_items + row_items, [&](int t) {
+      if (t >= component_items) {
+        fill_dtau_dq_ancestors(t - component_items);
         return;
       }
-      const int i = t / 6, c = t % 6;
-      const S* alpha_i = w.alpha + 6 * i;
-      // Bc alpha (one expression, so that the default layout's code is what it was)
-      w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) +
-                Ic_row(i, c, w.beta + 6 * i) +
-                (kLean ? block::rate_row_dot(w.Bc_sym, i, c, alpha_i) + cross_force_at(alpha_i, 1, w.hc + 6 * i, 1, c)
-                       : row_dot(w.Bc, i, c, alpha_i));
+      if constexpr (kLean) {
+        const int i = t / 3, r = t - 3 * i;
+        const S* alpha_i = w.alpha + 6 * i;
+        S SF[2], Ic_beta[2], sym[2], anti[2];
+        block::cross_force_pair(w.axis + 6 * i, w.F_total + 6 * i, r, SF[0], SF[1]);
+        Ic_rows(i, r, w.beta + 6 * i, Ic_beta[0], Ic_beta[1]);
+        Bc_sym_rows(i, r, alpha_i, sym[0], sym[1]);
+        block::cross_force_pair(alpha_i, w.hc + 6 * i, r, anti[0], anti[1]);
+        w.Dq[6 * i + r] = SF[0] + Ic_beta[0] + (sym[0] + anti[0]);
+        w.Dq[6 * i + 3 + r] = SF[1] + Ic_beta[1] + (sym[1] + anti[1]);
+      } else {
+        const int i = t / 6, c = t % 6;
+        w.Dq[t] = cross_force_at(w.axis + 6 * i, 1, w.F_total + 6 * i, 1, c) + Ic_row(i, c, w.beta + 6 * i) +
+                  row_dot(w.Bc, i, c, w.alpha + 6 * i);
+      }
     });
     g.sync();
     g.for_each(row_items, [&](int t) { fill_dtau_dq_subtree(t); });

@@ -46,6 +46,20 @@ RBDGRAD_HD S parameter_row_dot(const S* base, int i, int c, const S* x, S mass) 
   if constexpr (kWithMass) return angular ? moment : mass * x[c] + cross;
   else return angular ? moment : cross;
 }
+// Rows r and 3 + r (r < 3) of the product above at once, for an item that takes both: the terms
+// each row's select keeps, and the loads they share (h, x) once.
+template <bool kWithMass, class S>
+RBDGRAD_HD void parameter_rows_dot(const S* base, int i, int r, const S* x, S mass, S& angular, S& linear) {
+  const S* P = base + kInertiaParameterStride * i;
+  const S* h = P;
+  const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+  const S h1 = h[r1], h2 = h[r2];
+  angular = P[inertia_j_index(r, 0)] * x[0] + P[inertia_j_index(r, 1)] * x[1] + P[inertia_j_index(r, 2)] * x[2] +
+            (h1 * x[3 + r2] - h2 * x[3 + r1]);
+  const S cross = h2 * x[r1] - h1 * x[r2];
+  if constexpr (kWithMass) linear = mass * x[3 + r] + cross;
+  else linear = cross;
+}
 template <class S>
 RBDGRAD_HD S inertia_row_dot(const S* base, int i, int c, const S* x, S mass) {
   return parameter_row_dot<true>(base, i, c, x, mass);

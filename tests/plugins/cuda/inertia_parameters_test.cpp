@@ -3,6 +3,7 @@
 // algebra: the products and the rate's parameters, for random bodies and velocities.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "device/inertia_parameters.hpp"
@@ -117,6 +118,33 @@ TEST(InertiaParameters, RateMatchesTheMatrixForm) {
     for (int c = 0; c < 6; ++c)
       EXPECT_NEAR(cuda::block::rate_row_dot(got.data(), 0, c, x.data()), Rx(c), 1e-12 * scale * (1 + x.norm()))
           << "trial " << trial << ", component " << c;
+  }
+}
+
+// Rows r and 3 + r at once (the lean passes' items of two components) are the rows one at a time,
+// with the mass (an inertia) and without (a rate), at a body past the first: the same operations
+// (to rounding: a host compiler may fuse multiplies and adds differently in the two forms).
+TEST(InertiaParameters, RowPairsAreTheRowsOneAtATime) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 50; ++trial) {
+    double m0 = 0, m1 = 0;
+    const std::array<double, 9> p0 = parameters_of(random_inertia(rng, m0)), p1 = parameters_of(random_inertia(rng, m1));
+    std::array<double, 2 * cuda::kInertiaParameterStride> both{};
+    std::copy(p0.begin(), p0.end(), both.begin());
+    std::copy(p1.begin(), p1.end(), both.begin() + cuda::kInertiaParameterStride);
+    const Vec6d x = random_vector(rng);
+    double p_sum = m1;
+    for (const double v : p1) p_sum += std::abs(v);
+    const double tol = 1e-14 * (1 + x.norm()) * (1 + p_sum);
+    for (int r = 0; r < 3; ++r) {
+      double angular = 0, linear = 0;
+      cuda::block::parameter_rows_dot<true>(both.data(), 1, r, x.data(), m1, angular, linear);
+      EXPECT_NEAR(angular, cuda::block::inertia_row_dot(both.data(), 1, r, x.data(), m1), tol) << trial << ", " << r;
+      EXPECT_NEAR(linear, cuda::block::inertia_row_dot(both.data(), 1, 3 + r, x.data(), m1), tol) << trial << ", " << r;
+      cuda::block::parameter_rows_dot<false>(both.data(), 1, r, x.data(), 0.0, angular, linear);
+      EXPECT_NEAR(angular, cuda::block::rate_row_dot(both.data(), 1, r, x.data()), tol) << trial << ", " << r;
+      EXPECT_NEAR(linear, cuda::block::rate_row_dot(both.data(), 1, 3 + r, x.data()), tol) << trial << ", " << r;
+    }
   }
 }
 
