@@ -22,7 +22,8 @@
 # "profile" (only when named) runs Nsight Compute (--set full) on one launch of the kernels named
 # by PROFILE_KERNEL (default the block kernel) in the benchmark PROFILE_BENCH, its NVRTC programs
 # built with source lines (RBDGRAD_CUDA_LINEINFO): its details and per-source-line pages as text
-# in the logs, summed by source line (scripts/ncu_source_summary.py, per state of PROFILE_STATES),
+# in the logs, summed by source line and by pass (scripts/ncu_source_summary.py, per state of
+# PROFILE_STATES),
 # the report itself beside gpu-checks.tgz (profile.ncu-rep, if it fits the tool). "occupancy"
 # (only when named) runs Nsight Compute's launch and occupancy sections alone on that launch: the
 # blocks an SM holds and what limits them, in seconds where the full set takes minutes.
@@ -169,8 +170,9 @@ if [[ $steps == *" profile "* ]]; then
     --benchmark_filter="$profile_bench"
   step profile-details "$ncu" -i "$result/profile.ncu-rep" --page details --print-units base
   step profile-source "$ncu" -i "$result/profile.ncu-rep" --page source --csv --print-source cuda,sass
-  # by source line: the most stalls, and the most shared-memory wavefronts over their ideal
-  for by in stall excess; do
+  # by source line: the most stalls, and the most shared-memory wavefronts over their ideal; and
+  # by pass (the SASS between barriers)
+  for by in stall excess pass; do
     step "profile-lines-$by" python3 "$repo/scripts/ncu_source_summary.py" "$out/profile-source.log" \
       --states "${PROFILE_STATES:-65536}" --by "$by" --top 40
   done
