@@ -284,18 +284,30 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   };
   constexpr int kComponentsPerItem = kLean ? 2 : 1;
   const int component_items = 6 / kComponentsPerItem * n;
-  // the sums over joint i's ancestors-or-self (the joints of its block from the root on that
-  // contain it) of x_j y_j, components c and c + 1 (c even) of the 6-vectors x added to s0 and
-  // s1 in the joints' order: the lean passes' items take the two, x_j's pair one load
-  // (scalar_pairs.hpp), and the tree's test and y_j once for both
-  const auto add_ancestor_pair_sums = [&](const S* x, const S* y, int i, int c, S& s0, S& s1) {
-    for (int j = m.root_of[i]; j <= i; ++j) {
-      if (!m.contains(j, i)) continue;
-      S x0, x1;
-      load_pair(x + 6 * j + c, x0, x1);
-      const S yj = y[j];
-      s0 += x0 * yj;
-      s1 += x1 * yj;
+  // item t of a pass over the bodies' components: out_i = the sum over joint i's ancestors-or-self
+  // (the joints of its block from the root on that contain it) of x_j y_j, x 6-vectors, after
+  // gravity where `gravity`, in the joints' order. The lean passes' items take components c and
+  // c + 1 (c even): x_j's pair one load (scalar_pairs.hpp), the tree's test and y_j once for both.
+  const auto ancestor_sums_item = [&](const S* x, const S* y, S* out, int t, bool gravity) {
+    if constexpr (kLean) {
+      const int i = t / 3, c = 2 * (t - 3 * i);
+      S s0 = gravity ? gravity_at(m, c) : S(0), s1 = gravity ? gravity_at(m, c + 1) : S(0);
+      for (int j = m.root_of[i]; j <= i; ++j) {
+        if (!m.contains(j, i)) continue;
+        S x0, x1;
+        load_pair(x + 6 * j + c, x0, x1);
+        const S yj = y[j];
+        s0 += x0 * yj;
+        s1 += x1 * yj;
+      }
+      out[6 * i + c] = s0;
+      out[6 * i + c + 1] = s1;
+    } else {
+      const int i = t / 6, c = t % 6;
+      S s = gravity ? gravity_at(m, c) : S(0);
+      for (int j = m.root_of[i]; j <= i; ++j)
+        if (m.contains(j, i)) s += x[6 * j + c] * y[j];
+      out[t] = s;
     }
   };
   // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
@@ -407,20 +419,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   const int inertia_items = (w.I_joint ? kBodyEntries + 36 : kBodyEntries) * n;
   g.for_each(inertia_items + component_items, [&](int t) {
     if (t >= inertia_items) {
-      const int v_item = t - inertia_items;
-      if constexpr (kLean) {
-        const int i = v_item / 3, c = 2 * (v_item - 3 * i);
-        S s0 = S(0), s1 = S(0);
-        add_ancestor_pair_sums(w.axis, w.qd, i, c, s0, s1);
-        w.v[6 * i + c] = s0;
-        w.v[6 * i + c + 1] = s1;
-      } else {
-        const int i = v_item / 6, c = v_item % 6;
-        S s = S(0);
-        for (int j = m.root_of[i]; j <= i; ++j)
-          if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qd[j];
-        w.v[v_item] = s;
-      }
+      ancestor_sums_item(w.axis, w.qd, w.v, t - inertia_items, false);
       return;
     }
     const int local = by_n.quotient(t), i = t - local * n;
@@ -486,21 +485,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   });
   g.sync();
   // accelerations with qdd = 0: gravity plus the sums of alpha_j qd_j
-  g.for_each(component_items, [&](int t) {
-    if constexpr (kLean) {
-      const int i = t / 3, c = 2 * (t - 3 * i);
-      S s0 = gravity_at(m, c), s1 = gravity_at(m, c + 1);
-      add_ancestor_pair_sums(w.alpha, w.qd, i, c, s0, s1);
-      w.a[6 * i + c] = s0;
-      w.a[6 * i + c + 1] = s1;
-    } else {
-      const int i = t / 6, c = t % 6;
-      S s = gravity_at(m, c);
-      for (int j = m.root_of[i]; j <= i; ++j)
-        if (m.contains(j, i)) s += w.alpha[6 * j + c] * w.qd[j];
-      w.a[t] = s;
-    }
-  });
+  g.for_each(component_items, [&](int t) { ancestor_sums_item(w.alpha, w.qd, w.a, t, true); });
   g.sync();
   // body forces f = I a + v x* h - f_ext, and B = v x* I - I v x + h-bar entry by entry (entry
   // e of body i at item 6 n + e n + i, as the inertias). B's symmetric part is v x* I - I v x (the
@@ -848,21 +833,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // d tau/d q: the motion due to qdd (prefix sums of S_j qdd_j), then beta and the total subtree
   // force
   if (want_dq) {
-    g.for_each(component_items, [&](int t) {
-      if constexpr (kLean) {
-        const int i = t / 3, c = 2 * (t - 3 * i);
-        S s0 = S(0), s1 = S(0);
-        add_ancestor_pair_sums(w.axis, w.qdd, i, c, s0, s1);
-        w.a_qdd[6 * i + c] = s0;
-        w.a_qdd[6 * i + c + 1] = s1;
-      } else {
-        const int i = t / 6, c = t % 6;
-        S s = S(0);
-        for (int j = m.root_of[i]; j <= i; ++j)
-          if (m.contains(j, i)) s += w.axis[6 * j + c] * w.qdd[j];
-        w.a_qdd[t] = s;
-      }
-    });
+    g.for_each(component_items, [&](int t) { ancestor_sums_item(w.axis, w.qdd, w.a_qdd, t, false); });
     g.sync();
     g.for_each(component_items, [&](int t) {
       // beta = a_parent x S + v_parent x alpha with the final a_parent (gravity, v = 0 at the
