@@ -53,6 +53,22 @@ std::string hex_constant(unsigned long long value) {
   return text;
 }
 
+// The robot's tree as the constexpr functions TreeModelView reads (model_view.hpp), a struct of
+// the generated program's own
+constexpr const char* kTreeStruct = "rbdgrad_robot_tree";
+std::string tree_source(const Model& model) {
+  auto list = [&](const std::vector<int>& values) {
+    std::string text;
+    for (int i = 0; i < model.nv; ++i) text += (i ? ", " : "") + std::to_string(values[static_cast<std::size_t>(i)]);
+    return text;
+  };
+  return std::string("struct ") + kTreeStruct + " {\n" +
+         "  static constexpr __host__ __device__ int parent(int i) {\n"
+         "    constexpr int v[] = {" + list(model.parent) + "};\n    return v[i];\n  }\n" +
+         "  static constexpr __host__ __device__ int subtree_end(int i) {\n"
+         "    constexpr int v[] = {" + list(model.subtree_end) + "};\n    return v[i];\n  }\n};\n";
+}
+
 }  // namespace
 
 NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int arch, int stages,
@@ -76,15 +92,17 @@ NvrtcProgram block_kernel_program(const Model& model, KernelScalars scalars, int
              nv + " joints, " + levels + " levels), " +
              kernel_scalars_name(scalars) + ", " + block_stages_text(stages) +
              (build.register_cap > 0 ? ", at most " + std::to_string(build.register_cap) + " registers a thread" : "") +
-             ".\n#include \"block_kernel_entry.hpp\"\n";
+             ".\n#include \"block_kernel_entry.hpp\"\n" + (lean ? tree_source(model) : std::string());
   p.headers.assign(kEmbeddedDeviceHeaders, kEmbeddedDeviceHeaders + kEmbeddedDeviceHeaderCount);
   p.options = compile_options(arch);
   if (build.register_cap > 0) p.options.push_back("--maxrregcount=" + std::to_string(build.register_cap));
-  // the lean build's packed matrices' size as a constant too (model_view.hpp says why); the other
-  // builds are as they were measured
+  // the lean build's packed matrices' size and its tree as constants too (model_view.hpp says why);
+  // the other builds are as they were measured
   const std::string fixed_matrix = lean ? ", " + std::to_string(FlatModel<double>(model).matrix_scalars) : "";
-  p.name_expressions = {"rbdgrad::cuda::block_fused_kernel<" + scalar + ", rbdgrad::cuda::FixedSizeModelView<" +
-                        scalar + ", " + nv + ", " + levels + fixed_matrix + ">" + io + staged + compact + ">"};
+  const std::string view = lean ? "TreeModelView" : "FixedSizeModelView";
+  const std::string tree = lean ? std::string(", ") + kTreeStruct : "";
+  p.name_expressions = {"rbdgrad::cuda::block_fused_kernel<" + scalar + ", rbdgrad::cuda::" + view + "<" + scalar +
+                        ", " + nv + ", " + levels + fixed_matrix + tree + ">" + io + staged + compact + ">"};
   return p;
 }
 

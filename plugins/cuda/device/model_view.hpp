@@ -91,6 +91,15 @@ struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
   RBDGRAD_HD explicit FixedTreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS>(view) {}
 };
 
+// A FixedSizeModelView whose tree is a constant too (the block kernel's lean build compiled for one
+// robot): Tree, written into the kernel's source at model load (kernel_source.cpp), gives each
+// joint's parent and subtree end by constexpr functions parent(i) and subtree_end(i), so that a
+// pass unrolled over the joints finds its indices as constants (block_tree_sums.hpp).
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
+struct TreeModelView : FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS> {
+  RBDGRAD_HD explicit TreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>(view) {}
+};
+
 // The number of joints, the tree depth and the packed matrices' size a model type fixes at compile
 // time, 0 for run-time sizes.
 template <class Model>
@@ -103,6 +112,9 @@ struct FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>> {
 };
 template <class S, int NV, int LEVELS, unsigned long long P, unsigned long long E>
 struct FixedSizes<FixedTreeModelView<S, NV, LEVELS, P, E>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
+struct FixedSizes<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>>
+    : FixedSizes<FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>> {};
 
 // A joint's parent and subtree end from the model type where it fixes the tree, else (known:
 // false) from the view's arrays.
@@ -118,6 +130,13 @@ struct FixedTree<FixedTreeModelView<S, NV, LEVELS, P, E>> {
   static constexpr bool known = true;
   static RBDGRAD_HD constexpr int parent(const Model&, int i) { return unpack_tree_nibble(P, i, kParentBias); }
   static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return unpack_tree_nibble(E, i, kSubtreeEndBias); }
+};
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
+struct FixedTree<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>> {
+  using Model = TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>;
+  static constexpr bool known = true;
+  static RBDGRAD_HD constexpr int parent(const Model&, int i) { return Tree::parent(i); }
+  static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return Tree::subtree_end(i); }
 };
 
 // Where each array starts, in scalars of the S block and ints of the int block.

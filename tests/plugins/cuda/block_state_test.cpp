@@ -23,6 +23,29 @@
 #include "flat_model.hpp"
 
 namespace rbdgrad::testing {
+
+// A model type that fixes the tree as TreeModelView does (the lean kernel compiled for a robot,
+// kernel_source.cpp), here from the view's arrays: the passes that unroll over a fixed tree
+// (block_tree_sums.hpp) run on the host as loops.
+template <class S, int NV, int LEVELS>
+struct HostTreeView : cuda::FixedSizeModelView<S, NV, LEVELS> {
+  explicit HostTreeView(const cuda::ModelView<S>& view) : cuda::FixedSizeModelView<S, NV, LEVELS>(view) {}
+};
+
+}  // namespace rbdgrad::testing
+
+namespace rbdgrad::cuda {
+template <class S, int NV, int LEVELS>
+struct FixedSizes<testing::HostTreeView<S, NV, LEVELS>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};
+template <class S, int NV, int LEVELS>
+struct FixedTree<testing::HostTreeView<S, NV, LEVELS>> {
+  static constexpr bool known = true;
+  static int parent(const testing::HostTreeView<S, NV, LEVELS>& m, int i) { return m.parent[i]; }
+  static int subtree_end(const testing::HostTreeView<S, NV, LEVELS>& m, int i) { return m.subtree_end[i]; }
+};
+}  // namespace rbdgrad::cuda
+
+namespace rbdgrad::testing {
 namespace {
 
 constexpr std::size_t kStates = 40;
@@ -175,6 +198,41 @@ TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
   check_fixed_sizes<double, 12, 3>("hyq");
   check_fixed_sizes<float, 12, 3>("hyq");
   check_fixed_sizes<double, 32, 10>("talos_reduced");
+}
+
+// The lean kernel compiled for a robot with its tree fixed (TreeModelView): the passes that
+// unroll over the tree sum in another order, so the results match the core as closely, not bit
+// for bit; in reverse order as the 128 threads of its shape, the same bits.
+template <class S, int NV, int LEVELS>
+void check_fixed_tree(const std::string& robot) {
+  const Model model = robot_model(robot);
+  ASSERT_EQ(model.nv, NV) << robot;
+  ASSERT_EQ(model.max_depth(), LEVELS) << robot;
+  const std::vector<StateInputs> states = random_inputs(model, kStates, 13);
+  constexpr int kPerBatch = cuda::block_stages::kPerBatch;
+  using Tree = HostTreeView<S, NV, LEVELS>;
+  for (const bool tau_input : {true, false}) {
+    for (const OutputCase& c : kBlockCases) {
+      const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
+      CudaBatch<S> tree(states, model.nv, tau_input), reversed(states, model.nv, tau_input);
+      tree.poison();
+      reversed.poison();
+      const auto status = run_block_on_host<S, Tree, kPerBatch, true, true>(model, tree, c, tau_input, false);
+      for (std::size_t k = 0; k < kStates; ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
+      const Comparison cmp = compare_with_core(model, tree, c, tau_input);
+      ASSERT_TRUE(cmp.message.empty()) << where << ", tree fixed: " << cmp.message;
+      EXPECT_TRUE(cmp.within_bounds<S>()) << where << ", tree fixed: " << cmp.summary();
+      run_block_on_host<S, Tree, kPerBatch, true, true>(model, reversed, c, tau_input, true, 128);
+      ASSERT_TRUE(same_outputs(tree, reversed)) << where << ": the tree fixed, the items in reverse order, as 128 threads";
+    }
+  }
+}
+
+TEST(BlockStateOnHost, FixedTreeMatchesTheCore) {
+  check_fixed_tree<double, 32, 10>("talos_reduced");
+  check_fixed_tree<float, 32, 10>("talos_reduced");
+  check_fixed_tree<double, 12, 3>("hyq");
+  check_fixed_tree<double, 7, 7>("iiwa14");
 }
 
 // The blocks the inversion and the products with M^-1 keep to (ModelView::root_of): each joint's

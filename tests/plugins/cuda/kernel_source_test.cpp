@@ -94,14 +94,19 @@ TEST(KernelSource, FixesTheRobotsSizesAndIncludesOnlyEmbeddedHeaders) {
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64ForF32, 90, 6, {true, 0}).name_expressions.at(0),
             "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7>, float, 6, true>");
   // the lean working set: after compact, named in the file and the comment, its packed matrices'
-  // size a constant (iiwa14's one block: 49); nothing without compact
+  // size a constant (iiwa14's one block: 49) and its tree too, written into the source (a chain:
+  // each joint's parent the joint before, every subtree ending at the last); nothing without compact
   const cuda::NvrtcProgram lean =
       cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {true, 64, true});
   EXPECT_EQ(lean.name_expressions.at(0),
-            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::FixedSizeModelView<double, 7, 7, 49>, double, -1, "
-            "true, true>");
+            "rbdgrad::cuda::block_fused_kernel<double, rbdgrad::cuda::TreeModelView<double, 7, 7, 49, rbdgrad_robot_tree>, "
+            "double, -1, true, true>");
   EXPECT_EQ(lean.name, "block_kernel_iiwa14_f64_compact_lean.cu");
   EXPECT_THAT(lean.source, HasSubstr("compact block kernel with a lean working set"));
+  EXPECT_THAT(lean.source, HasSubstr("struct rbdgrad_robot_tree {"));
+  EXPECT_THAT(lean.source, HasSubstr("constexpr int v[] = {-1, 0, 1, 2, 3, 4, 5};"));
+  EXPECT_THAT(lean.source, HasSubstr("constexpr int v[] = {7, 7, 7, 7, 7, 7, 7};"));
+  EXPECT_THAT(compact.source, ::testing::Not(HasSubstr("rbdgrad_robot_tree")));
   EXPECT_EQ(cuda::block_kernel_program(model, cuda::KernelScalars::kF64, 90, cuda::block_stages::kPerBatch, {false, 0, true})
                 .name_expressions.at(0),
             f64.name_expressions.at(0));
