@@ -1,10 +1,10 @@
-// Sums over subtrees and over ancestors by the tree itself, for a model type that fixes the tree (model_view.hpp:
-// TreeModelView, the lean block kernel compiled for one robot). One thread sums one component for
-// every joint, each joint's sum from its children's or its parent's, which are still in registers. With the
-// tree's indices constants the loops unroll into straight-line adds and loads at constant offsets;
-// the generic pass (block_fused_state.hpp) sums each subtree anew, an item a joint and component,
-// with a loop and index arithmetic per item (run 141: 3,534 warp instructions a talos_reduced
-// state for 256 of arithmetic).
+// Sums over subtrees and over ancestors by the tree itself, for a model type that fixes the tree
+// (model_view.hpp: TreeModelView, the lean block kernel compiled for one robot). One thread sums
+// one component for every joint, each joint's sum from its children's or its parent's, which are
+// still in registers. With the tree's indices constants the loops unroll into straight-line adds
+// and loads at constant offsets; the generic pass (block_fused_state.hpp) sums each subtree anew,
+// an item a joint and component, with a loop and index arithmetic per item (run 141: 3,534 warp
+// instructions a talos_reduced state for 256 of arithmetic).
 #pragma once
 
 #include "model_view.hpp"

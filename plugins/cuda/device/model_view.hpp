@@ -97,7 +97,8 @@ struct FixedTreeModelView : FixedSizeModelView<S, NV, LEVELS> {
 // pass unrolled over the joints finds its indices as constants (block_tree_sums.hpp).
 template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
 struct TreeModelView : FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS> {
-  RBDGRAD_HD explicit TreeModelView(const ModelView<S>& view) : FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>(view) {}
+  RBDGRAD_HD explicit TreeModelView(const ModelView<S>& view)
+      : FixedSizeModelView<S, NV, LEVELS, MATRIX_SCALARS>(view) {}
 };
 
 // The number of joints, the tree depth and the packed matrices' size a model type fixes at compile
