@@ -56,8 +56,9 @@ struct ChunkRule {
 /// at least kMinChunkStates.
 std::size_t chunk_min_states(int nv);
 // The block kernel computes gradient requests of up to this many states (the plugin's option
-// block_max_states); larger ones, and every other request, go to the one-thread kernel.
-inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 40;
+// block_max_states); larger ones, and every other request, go to the one-thread kernel. At most
+// 2^29: the kernel indexes a launch's states, and 6 times them, by 32 bits (block_kernel_entry.hpp).
+inline constexpr std::size_t kDefaultBlockMaxStates = std::size_t{1} << 29;
 
 // f32 gradient batches of at least this many states on models of at most kThreadKernelMaxNv
 // joints go to the one-thread kernel (the plugin's option f32_thread_kernel_min_states; 0:

@@ -24,6 +24,7 @@
 #include "block_articulated_body.hpp"
 #include "block_stages.hpp"
 #include "block_mass_inverse.hpp"
+#include "block_tree_products.hpp"
 #include "block_tree_sums.hpp"
 #include "fused_state.hpp"
 #include "scalar_pairs.hpp"
@@ -224,7 +225,7 @@ RBDGRAD_HD void block_load_inputs(int n, const BlockWorkspace<S>& w, const Batch
 template <class S, class Model, class IO, int kStages = block_stages::kPerBatch, bool kPacked = false,
           bool kLean = false>
 RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w, const BatchPointers<IO>& b,
-                                     std::uint64_t state, bool active, const ThreadGroup& g) {
+                                     std::uint32_t state, bool active, const ThreadGroup& g) {
   using block::col_dot;
   using block::cross_force_at;
   using block::cross_motion_at;
@@ -234,7 +235,9 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   using block::symmetric_row_dot;
   const int n = m.nv;
   const std::uint64_t vec = static_cast<std::uint64_t>(n), mat = vec * vec;
-  const IO* fext = b.fext ? b.fext + state * 6 * vec : nullptr;
+  // (6 state fits 32 bits: kDefaultBlockMaxStates; a 64-bit product here, ptxas spilled at 64
+  // registers)
+  const IO* fext = b.fext ? b.fext + static_cast<std::uint64_t>(6 * state) * vec : nullptr;
   const auto by_n = block::divider_for<Model>(n);
   // compile-time constants in a scene's kernel: the branches below then leave no code behind
   constexpr bool kFixed = kStages != block_stages::kPerBatch;
@@ -743,6 +746,52 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   };
 
+  // The same products by the tree's blocks where the model type fixes the tree and M^-1 is
+  // computed here (block_tree_products.hpp: a warp's lanes one block size's code, its offsets
+  // constants): a warp for the entries between blocks, then the tiles of every block; qdd's rows.
+  // (This order, the finite flag once an item and tiles of 4 rows: ptxas spilled talos_reduced's
+  // kernels at 64 registers in the others tried.)
+  constexpr bool kTreeProducts = kTreeFixed && kPacked;
+  const bool by_tree = kTreeProducts && !minv_supplied;
+  int tree_product_items = 0, tree_row_items = 0;
+  if constexpr (kTreeProducts) {
+    tree_product_items = tree_block_items(m, false) + tree_zero_items(m);
+    tree_row_items = tree_block_items(m, true);
+  }
+  // the blocks' packed matrices two entries a load where they start at even offsets and are of
+  // even size (the lean layout aligns M^-1 to pairs)
+  const auto tree_pairs = [](int size, int packed) { return kPairs && packed % 2 == 0 && size % 2 == 0; };
+  // (out: the state's matrix, or null)
+  auto minus_product_by_tree = [&](const S* dtau, int t, IO* out) {
+    if constexpr (kTreeProducts) {
+      const int zeros = tree_zero_items(m);
+      if (t >= zeros) {
+        t -= zeros;
+        bool finite = true;
+        tree_block_item(m, t, false, [&](int first, int size, int packed, int tile, int col) {
+          tree_tile_product(inverse + packed, dtau + packed, size, tile, col, tree_pairs(size, packed), [&](int i, int j, S s) {
+            const IO y = static_cast<IO>(-s);
+            finite &= is_finite(y);
+            if (out) out[(first + i) * n + first + j] = y;
+          });
+        });
+        if (!finite) *w.not_finite = 1;
+      } else {
+        tree_zero_entries(m, t, [&](int i, int j) {
+          if (out) out[i * n + j] = static_cast<IO>(-S(0));
+        });
+      }
+    }
+  };
+  const auto state_matrix = [&](IO* out) { return out ? out + state * mat : out; };
+  auto qdd_by_tree = [&](int t) {
+    if constexpr (kTreeProducts) {
+      tree_block_item(m, t, true, [&](int first, int size, int packed, int row, int) {
+        w.qdd[first + row] = tree_row_product(inverse + packed + row * size, w.u + first, size, tree_pairs(size, packed));
+      });
+    }
+  };
+
   // d tau/d qd and d tau/d q row by row: entry (r, c) is S_r . X_c where r is an ancestor-or-self
   // of c, Ic S_r . Y_c + Bc^T S_r . Z_c where c is a strict ancestor of r (d tau/d qd: X = E,
   // Y = 2 alpha, Z = S, the 2 taken into Ic S_r; d tau/d q: X = Dq, Y = beta, Z = alpha), zero
@@ -845,12 +894,18 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   auto inverse_end = [&](int i) { return minv_supplied ? n : block_end(i); };
   // f64: qdd = M^-1 (tau - c) (u holds tau - c; f32 has qdd from the articulated-body pass), in
   // one pass with the product of d tau/d qd
-  const int qdd_items = qdd_by_inverse ? n : 0;
-  const int dqd_product_items = want_dqd ? product_items : 0;
+  const int qdd_items = qdd_by_inverse ? (by_tree ? tree_row_items : n) : 0;
+  const int dqd_product_items = want_dqd ? (by_tree ? tree_product_items : product_items) : 0;
   if (qdd_items + dqd_product_items > 0) {
+    IO* const dqd_matrix = state_matrix(out_dqd);
     g.for_each(qdd_items + dqd_product_items, [&](int t) {
       if (t >= qdd_items) {
-        minus_product_rows(w.dtau_dqd, t - qdd_items, out_dqd);
+        if (by_tree) minus_product_by_tree(w.dtau_dqd, t - qdd_items, dqd_matrix);
+        else minus_product_rows(w.dtau_dqd, t - qdd_items, out_dqd);
+        return;
+      }
+      if (by_tree) {
+        qdd_by_tree(t);
         return;
       }
       S s = S(0);
@@ -949,7 +1004,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // the other outputs: qdd, then the d/dq entries and M^-1 of the stages that ran
   const bool want_minv = (b.outputs & kOutputMinv) != 0;
-  const int dq_items = want_dq ? product_items : 0;
+  const int dq_items = want_dq ? (by_tree ? tree_product_items : product_items) : 0;
   // entry e of M^-1 computed here (the MINV output never comes with a caller's, block_kernel_supports)
   const auto minv_entry = [&](int e) {
     if constexpr (kPacked) {
@@ -959,10 +1014,19 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       return inverse[e];
     }
   };
-  g.for_each(n + dq_items + (want_minv ? n * n : 0), [&](int t) {
-    if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
-    else if (t < n + dq_items) minus_product_rows(w.dtau_dq, t - n, out_dq);
-    else write(minv_entry(t - n - dq_items), out_minv, state * mat + (t - n - dq_items));
+  // (by the tree: qdd's items whole warps, so that the products' start a warp)
+  const int qdd_write_items = by_tree ? whole_warps(n) : n;
+  IO* const dq_matrix = state_matrix(out_dq);
+  g.for_each(qdd_write_items + dq_items + (want_minv ? n * n : 0), [&](int t) {
+    if (t < qdd_write_items) {
+      if (t < n) write(w.qdd[t], out_qdd, state * vec + t);
+    } else if (t < qdd_write_items + dq_items) {
+      if (by_tree) minus_product_by_tree(w.dtau_dq, t - qdd_write_items, dq_matrix);
+      else minus_product_rows(w.dtau_dq, t - qdd_write_items, out_dq);
+    } else {
+      const int e = t - qdd_write_items - dq_items;
+      write(minv_entry(e), out_minv, state * mat + e);
+    }
   });
   g.sync();
   if (g.rank == 0 && active) {

@@ -97,7 +97,10 @@ __global__ void block_fused_kernel(ModelView<S> global_model, BatchPointers<IO> 
     if (g.rank == 0) g_block_pass_clocks[1] = clock64();
   }
 #endif
-  block_evaluate_state<S, Model, IO, kStages, kCompact, kLean>(model, w, batch, active ? k : batch.n - 1, active, g);
+  // (a launch's states are at most kDefaultBlockMaxStates: a 32-bit index, one register where
+  // 64 bits took two, which the kernel held or spilled through all its passes)
+  const auto state = static_cast<std::uint32_t>(active ? k : batch.n - 1);
+  block_evaluate_state<S, Model, IO, kStages, kCompact, kLean>(model, w, batch, state, active, g);
 }
 #endif
 

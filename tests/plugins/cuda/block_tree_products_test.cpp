@@ -1,0 +1,170 @@
+// Tests for plugins/cuda/device/block_tree_products.hpp (the products with M^-1 by the blocks of a
+// tree fixed at compile time), compiled as plain C++: the items cover every entry of the blocks
+// once and every entry between them once, each warp's items keep to one block size, the blocks
+// sit where the flat model packs them, and the sums are the plain products' to the bit.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "../../support/test_models.hpp"
+#include "device/block_tree_products.hpp"
+#include "flat_model.hpp"
+
+namespace rbdgrad::testing {
+
+// A tree as a model type that fixes it, from arrays (the kernel's TreeModelView has constexpr
+// functions; the code under test calls the same two)
+template <int NV>
+struct ArrayTree {
+  std::vector<int> parent, subtree_end;
+  explicit ArrayTree(std::vector<int> parents) : parent(std::move(parents)), subtree_end(NV) {
+    for (int i = NV - 1; i >= 0; --i) {
+      int end = i + 1;
+      for (int c = i + 1; c < NV; ++c)
+        if (parent[c] == i && subtree_end[c] > end) end = subtree_end[c];
+      subtree_end[i] = end;
+    }
+  }
+};
+
+}  // namespace rbdgrad::testing
+
+namespace rbdgrad::cuda {
+template <int NV>
+struct FixedSizes<testing::ArrayTree<NV>> {
+  static constexpr int nv = NV, levels = 0, matrix_scalars = 0;
+};
+template <int NV>
+struct FixedTree<testing::ArrayTree<NV>> {
+  static constexpr bool known = true;
+  static int parent(const testing::ArrayTree<NV>& m, int i) { return m.parent[i]; }
+  static int subtree_end(const testing::ArrayTree<NV>& m, int i) { return m.subtree_end[i]; }
+};
+}  // namespace rbdgrad::cuda
+
+namespace rbdgrad::testing {
+namespace {
+
+// chains of the given lengths, one after the other, each from the world
+std::vector<int> chains(const std::vector<int>& lengths) {
+  std::vector<int> parent;
+  for (const int length : lengths)
+    for (int k = 0; k < length; ++k) parent.push_back(k == 0 ? -1 : static_cast<int>(parent.size()) - 1);
+  return parent;
+}
+
+template <int NV>
+void check_tree(const std::string& name, const std::vector<int>& parents) {
+  ASSERT_EQ(static_cast<int>(parents.size()), NV) << name;
+  const ArrayTree<NV> m(parents);
+  using Blocks = cuda::TreeBlocks<ArrayTree<NV>>;
+  // each joint's block: [root, subtree_end(root)); the packed matrices as flat_model.hpp lays them
+  std::vector<int> root_of(NV), packed_at(NV, -1);
+  int packed_scalars = 0;
+  for (int i = 0; i < NV; ++i) {
+    root_of[i] = parents[i] < 0 ? i : root_of[parents[i]];
+    if (parents[i] < 0) {
+      packed_at[i] = packed_scalars;
+      packed_scalars += Blocks::size(m, i) * Blocks::size(m, i);
+    }
+  }
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  std::vector<double> a(packed_scalars), d(packed_scalars), x(NV);
+  for (double& v : a) v = value(rng);
+  for (double& v : d) v = value(rng);
+  for (double& v : x) v = value(rng);
+
+  // the tiles: each entry of each block once, the product's sum in r's order; a warp's items one
+  // block size
+  std::map<std::pair<int, int>, int> written;
+  const int items = cuda::tree_block_items(m, false);
+  ASSERT_EQ(items % 32, 0) << name;
+  for (int t = 0; t < items; ++t) {
+    cuda::tree_block_item(m, t, false, [&](int first, int b, int packed, int tile, int col) {
+      ASSERT_EQ(packed, packed_at[first]) << name << " item " << t;
+      ASSERT_EQ(b, Blocks::size(m, first)) << name << " item " << t;
+      // the other items of this warp with work: blocks of the same size
+      for (int u = t / 32 * 32; u < t / 32 * 32 + 32; ++u)
+        cuda::tree_block_item(m, u, false, [&](int, int other, int, int, int) {
+          EXPECT_EQ(other, b) << name << ": items " << t << " and " << u << " share a warp";
+        });
+      cuda::tree_tile_product(a.data() + packed, d.data() + packed, b, tile, col, packed % 2 == 0 && b % 2 == 0,
+                              [&](int i, int j, double s) {
+                                double expected = 0.0;
+                                for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
+                                EXPECT_EQ(s, expected) << name << " entry (" << first + i << ", " << first + j << ")";
+                                ++written[{first + i, first + j}];
+                              });
+    });
+  }
+  // qdd's rows: each row once
+  std::vector<int> rows_written(NV, 0);
+  const int row_items = cuda::tree_block_items(m, true);
+  ASSERT_EQ(row_items % 32, 0) << name;
+  for (int t = 0; t < row_items; ++t) {
+    cuda::tree_block_item(m, t, true, [&](int first, int b, int packed, int row, int col) {
+      EXPECT_EQ(col, 0);
+      const double s = cuda::tree_row_product(a.data() + packed + row * b, x.data() + first, b, packed % 2 == 0 && b % 2 == 0);
+      double expected = 0.0;
+      for (int r = 0; r < b; ++r) expected += a[packed + row * b + r] * x[first + r];
+      EXPECT_EQ(s, expected) << name << " row " << first + row;
+      ++rows_written[first + row];
+    });
+  }
+  for (int i = 0; i < NV; ++i) EXPECT_EQ(rows_written[i], 1) << name << " row " << i;
+  // the entries between blocks: one warp, each once
+  const int zero_items = cuda::tree_zero_items(m);
+  EXPECT_EQ(zero_items, Blocks::roots(m) > 1 ? 32 : 0) << name;
+  for (int lane = 0; lane < zero_items; ++lane)
+    cuda::tree_zero_entries(m, lane, [&](int i, int j) {
+      EXPECT_NE(root_of[i], root_of[j]) << name << ": (" << i << ", " << j << ") zeroed inside a block";
+      ++written[{i, j}];
+    });
+  for (int i = 0; i < NV; ++i)
+    for (int j = 0; j < NV; ++j)
+      EXPECT_EQ((written[{i, j}]), 1) << name << ": entry (" << i << ", " << j << ")";
+}
+
+TEST(TreeProducts, CoverEveryEntryOnceWithThePlainSums) {
+  check_tree<7>("a chain of 7", chains({7}));
+  check_tree<12>("four chains of 3", chains({3, 3, 3, 3}));
+  check_tree<20>("chains of 3, 7, 3, 7", chains({3, 7, 3, 7}));
+  check_tree<40>("two chains of 20 (more joints than a warp's lanes)", chains({20, 20}));
+  check_tree<11>("a chain of 11 (tiles of 4, 4 and 3 rows)", chains({11}));
+}
+
+// The embedded robots' trees, and where flat_model.hpp packs their blocks
+template <int NV>
+void check_robot(const std::string& robot) {
+  const Model model = load_embedded(robot);
+  ASSERT_EQ(model.nv, NV) << robot;
+  check_tree<NV>(robot, model.parent);
+  const cuda::FlatModel<double> flat(model);
+  const cuda::ModelView<double> view = flat.host_view();
+  const ArrayTree<NV> m(model.parent);
+  for (int i = 0; i < NV; ++i) {
+    if (model.parent[i] >= 0) continue;
+    int first = -1, packed = -1;
+    for (int k = 0; k < cuda::TreeBlocks<ArrayTree<NV>>::count(m, view.subtree_end[i] - i); ++k) {
+      int f, p;
+      cuda::TreeBlocks<ArrayTree<NV>>::block(m, view.subtree_end[i] - i, k, f, p);
+      if (f == i) first = f, packed = p;
+    }
+    ASSERT_EQ(first, i) << robot << ": root " << i << " not among its size's blocks";
+    EXPECT_EQ(packed, view.matrix_row[i] + i) << robot << ": root " << i << "'s block packed elsewhere";
+  }
+}
+
+TEST(TreeProducts, EmbeddedRobotsBlocksWhereTheFlatModelPacksThem) {
+  check_robot<32>("talos_reduced");
+  check_robot<12>("hyq");
+  check_robot<7>("iiwa14");
+}
+
+}  // namespace
+}  // namespace rbdgrad::testing
