@@ -288,6 +288,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     k.reset();
     const Status s =
         SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact, kernel_.block_lean,
+                                     kernel_.block_tree_chains,
                                      kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
@@ -299,6 +300,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     const BlockBuild& build = k->build();
     if (build.compact) parts += ", compact";
     if (build.lean) parts += ", lean working set";
+    if (build.tree_chains) parts += ", M^-1 by the tree's chains";
     if (build.register_cap > 0) parts += ", at most " + std::to_string(build.register_cap) + " registers a thread";
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64

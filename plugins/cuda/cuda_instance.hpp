@@ -129,6 +129,11 @@ struct KernelOptions {
   // sizes measured, docs/benchmarks/cuda.md). Needs block_compact. Read by specialize(), which
   // builds the kernel, and by the launches' shape.
   bool block_lean = true;
+  // the lean build's M^-1 by the tree's chains where they fit one warp (device/block_tree_chains.hpp:
+  // talos_reduced's 10 level passes and the columns' pass one pass, on one warp, the other warps
+  // on d tau/d qd's rows; on an H200 its kernel 5.4% faster at 65536 f64 states, 4.8% f32
+  // batches, docs/benchmarks/cuda.md). Read by specialize(); ignored without block_lean.
+  bool block_tree_chains = true;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;

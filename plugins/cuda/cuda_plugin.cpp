@@ -88,12 +88,13 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // block_compact: the block kernel compiled for the robot is the compact one, which fits more
     // states an SM (default true; false: the dense one; cuda_instance.hpp). block_lean: that kernel
     // with its lean working set (default true where the compact kernel is built; needs
-    // block_compact).
+    // block_compact). block_tree_chains: the lean kernel's M^-1 by the tree's chains (default true
+    // where the lean kernel is built; needs block_lean).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
                                            "specialize", "kernel_cache_dir", "graphs", "warp_kernel",
-                                           "block_compact", "block_lean"});
+                                           "block_compact", "block_lean", "block_tree_chains"});
         !s)
       return s;
     bool specialize = true;
@@ -114,6 +115,11 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (block_lean && !specialize && lean_asked)
       return invalid_argument(
           "option 'block_lean' needs 'specialize' (the lean working set is compiled for the robot)");
+    // on by default with the lean kernel; asked for explicitly, it needs the lean kernel
+    bool block_tree_chains = block_lean;
+    if (Status s = option_bool(options, "block_tree_chains", block_tree_chains); !s) return s;
+    if (block_tree_chains && !block_lean && find_option(options, "block_tree_chains") != nullptr)
+      return invalid_argument("option 'block_tree_chains' needs 'block_lean' (the chains are the lean kernel's)");
     const char* cache_option = find_option(options, "kernel_cache_dir");
     const std::string cache_dir = cache_option != nullptr ? cache_option : cuda::default_kernel_cache_dir();
     std::uint64_t device = 0;
@@ -154,6 +160,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     kernel.warp_kernel = warp_kernel;
     kernel.block_compact = block_compact;
     kernel.block_lean = block_lean;
+    kernel.block_tree_chains = block_tree_chains;
     if (Status s = cuda::check_kernel_options(kernel); !s) return s;
     Model model;
     if (Status s = model_from_desc(*desc, model); !s) return s;

@@ -24,6 +24,7 @@
 #include "block_articulated_body.hpp"
 #include "block_stages.hpp"
 #include "block_mass_inverse.hpp"
+#include "block_tree_chains.hpp"
 #include "block_tree_products.hpp"
 #include "block_tree_sums.hpp"
 #include "fused_state.hpp"
@@ -194,6 +195,12 @@ RBDGRAD_HD S gravity_cross_at(const Model& m, const S* Si, int c) {
 }
 
 }  // namespace block
+
+// A state's outputs in the batch (null: not asked, or the state is inactive)
+template <class IO>
+struct BlockOutputs {
+  IO *qdd, *minv, *dq, *dqd;
+};
 
 // Reads the state's inputs q, qd and u into w.q, w.qd, w.u, each by the thread that uses it in the
 // first pass. The kernel does it before it loads the robot's constants, so that the two reads'
@@ -673,10 +680,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // d qdd/d u = -M^-1 dc'/du, every entry in parallel (after the inversion); each thread writes
   // its own entries (consecutive items, consecutive addresses) and flags what is not finite.
   // Column j of d tau/d u is zero outside j's block, and so is row i of M^-1 computed here.
-  IO* const out_qdd = active ? b.out[output_index(kOutputQdd)] : nullptr;
-  IO* const out_minv = active ? b.out[output_index(kOutputMinv)] : nullptr;
-  IO* const out_dq = active ? b.out[output_index(kOutputDqddDq)] : nullptr;
-  IO* const out_dqd = active ? b.out[output_index(kOutputDqddDqd)] : nullptr;
+  // The outputs' pointers: taken here, or after M^-1 where it goes by the tree's chains (so taken,
+  // neither build spills at 64 registers; ptxas's allocation there is chaotic).
+  const auto block_outputs = [&] {
+    return BlockOutputs<IO>{active ? b.out[output_index(kOutputQdd)] : nullptr,
+                            active ? b.out[output_index(kOutputMinv)] : nullptr,
+                            active ? b.out[output_index(kOutputDqddDq)] : nullptr,
+                            active ? b.out[output_index(kOutputDqddDqd)] : nullptr};
+  };
+  constexpr bool kChainsBuild = kTreeFixed && kPacked && TreeConstants<Model>::chains;
+  BlockOutputs<IO> outputs_before{};
+  if constexpr (!kChainsBuild) outputs_before = block_outputs();
   auto write = [&](S x, IO* out, std::uint64_t at) {
     const IO y = static_cast<IO>(x);
     if (!is_finite(y)) *w.not_finite = 1;
@@ -804,6 +818,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // (its subtree's first).
   const int row_groups = g.size / n > 1 ? g.size / n : 1;
   const int row_items = n * row_groups;
+  // (its threads a row: row_groups, or fewer where the pass leaves a warp to M^-1's chains)
+  int dqd_groups = row_groups;
   auto fill_dtau_dqd = [&](int t) {
     const int c0 = by_n.quotient(t), r = t - c0 * n;
     S* const row = w.dtau_dqd + row_at(r);
@@ -816,7 +832,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
-      for (; c < r; c += row_groups)
+      for (; c < r; c += dqd_groups)
         row[c] = r < m.subtree_end[c] ? dot6_with(IcSr, w.alpha + 6 * c) + dot6_with(BcSr, w.axis + 6 * c) : S(0);
     }
     S Sr[6];
@@ -825,7 +841,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
-    for (; c < end; c += row_groups) row[c] = c < r_end ? dot6_with(Sr, w.E + 6 * c) : S(0);
+    for (; c < end; c += dqd_groups) row[c] = c < r_end ? dot6_with(Sr, w.E + 6 * c) : S(0);
   };
   // d tau/d q's in two passes: the columns before r in Dq's (they do not need Dq), the rest after
   // it; and before r one of the row's vectors at a time (in one pass and with both, as d tau/d
@@ -866,8 +882,25 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
 
   // M^-1 into M's matrix (block_mass_inverse.hpp: by the articulated-body recursion, M itself is
   // never formed), a pass a tree level, the first of which also fills d tau/d qd, then a pass of a
-  // thread a column; or the caller's M^-1, read by every thread.
-  if (minv_supplied) {
+  // thread a column; or the caller's M^-1, read by every thread. The tree fixed (the lean kernel
+  // compiled for the robot, built so) and its chains fitting one warp: all of it by the chains,
+  // on the group's first warp where it has two or more, d tau/d qd's rows on the others, in one
+  // pass (block_tree_chains.hpp).
+  bool by_chains = false;
+  if constexpr (kChainsBuild) {
+    // (M^-1's scalars, where the chains leave their P: the packed size, a constant where fixed)
+    constexpr int kFixedPacked = FixedSizes<Model>::matrix_scalars;
+    const int packed = kFixedPacked > 0 ? kFixedPacked : static_cast<const ModelView<S>&>(m).matrix_scalars;
+    by_chains = !minv_supplied && tree_chains_fit(m, packed);
+  }
+  if (by_chains) {
+    if constexpr (kChainsBuild) {
+      // (d tau/d qd's rows on the threads the chains leave, if they leave any)
+      if (tree_chains_split(g)) dqd_groups = (g.size - 32) / n > 1 ? (g.size - 32) / n : 1;
+      tree_mass_inverse<kPairs>(m, w.axis, w.Ic_S, w.IA_S, pivots, w.failed_pivot, inverse, row_at, g,
+                                want_dqd ? n * dqd_groups : 0, fill_dtau_dqd);
+    }
+  } else if (minv_supplied) {
     // the caller's M^-1 (checked by the caller; a value that is not finite shows in the results)
     const IO* minv = b.minv + state * mat;
     g.for_each(n * n + dqd_fill_items, [&](int t) {
@@ -888,6 +921,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     });
   }
   g.sync();
+  const BlockOutputs<IO> outputs = kChainsBuild ? block_outputs() : outputs_before;
+  IO* const out_qdd = outputs.qdd;
+  IO* const out_minv = outputs.minv;
+  IO* const out_dq = outputs.dq;
+  IO* const out_dqd = outputs.dqd;
   // the columns of M^-1 that row i of a product with it needs: row i's block, or every column
   // for a caller's M^-1 (whose entries between blocks are the caller's)
   auto inverse_begin = [&](int i) { return minv_supplied ? 0 : block_begin(i); };

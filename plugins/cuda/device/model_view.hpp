@@ -140,6 +140,22 @@ struct FixedTree<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>> {
   static RBDGRAD_HD constexpr int subtree_end(const Model&, int i) { return Tree::subtree_end(i); }
 };
 
+// A joint's parent as a constant expression, without a view (known: the model type's tree is
+// constexpr): what a table built at compile time from the tree needs (block_tree_chains.hpp); and
+// whether M^-1 goes by the tree's chains (the kernel compiled for a robot: as its build says; the
+// host tests' views: where they fit).
+template <class Model>
+struct TreeConstants {
+  static constexpr bool known = false;
+  static constexpr bool chains = true;
+};
+template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
+struct TreeConstants<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>> {
+  static constexpr bool known = true;
+  static constexpr bool chains = Tree::chains;
+  static RBDGRAD_HD constexpr int parent(int i) { return Tree::parent(i); }
+};
+
 // Where each array starts, in scalars of the S block and ints of the int block.
 struct ModelLayout {
   static constexpr int kScalarsPerJoint = 9 + 3 + 1 + 3 + 9 + 9;

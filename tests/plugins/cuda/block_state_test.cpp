@@ -56,12 +56,13 @@ constexpr std::size_t kGuardScalars = 64;
 // Model: ModelView<S> as the generic kernel sees the robot, or FixedSizeModelView<S, nv, levels>
 // as the kernel compiled for it at load does. kPacked: the compact kernel's matrices, its working
 // set sized as the kernel sizes it (block_state_scalars). kLean: the lean working set. reverse:
-// each pass's items in reverse order, as a group of `threads` (which shapes a pass's items: row
-// segments).
+// each pass's items in reverse order. threads: the group's size, which shapes a pass's items (row
+// segments) and, for the tree fixed, how M^-1 is found (block_tree_chains.hpp, from two whole
+// warps); 0: one thread, or 256 reversed.
 template <class S, class Model = cuda::ModelView<S>, int kStages = cuda::block_stages::kPerBatch, bool kPacked = false,
           bool kLean = false>
 std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBatch<S>& a, const OutputCase& c,
-                                             bool tau_input, bool reverse, int threads = 256) {
+                                             bool tau_input, bool reverse, int threads = 0) {
   const cuda::FlatModel<S> flat(model);
   const Model m(flat.host_view());
   const bool with_aba = cuda::block_uses_aba<S>(tau_input);
@@ -75,7 +76,7 @@ std::vector<std::uint32_t> run_block_on_host(const rbdgrad::Model& model, CudaBa
   cuda::ThreadGroup g;
   g.reverse = reverse;
   // reversed, as the GPU's group of threads, which gives a pass more items (row segments)
-  if (reverse) g.size = threads;
+  g.size = threads > 0 ? threads : reverse ? 256 : 1;
   for (std::size_t k = 0; k < a.n; ++k) {
     cuda::block_load_inputs(m.nv, w, b, k, g);
     cuda::block_evaluate_state<S, Model, S, kStages, kPacked, kLean>(m, w, b, k, true, g);
@@ -202,7 +203,8 @@ TEST(BlockStateOnHost, FixedSizesGiveTheSameBits) {
 
 // The lean kernel compiled for a robot with its tree fixed (TreeModelView): the passes that
 // unroll over the tree sum in another order, so the results match the core as closely, not bit
-// for bit; in reverse order as the 128 threads of its shape, the same bits.
+// for bit; in reverse order, the same bits. As 128 threads (its shape for large launches), M^-1
+// by the tree's chains on one warp (block_tree_chains.hpp); as one thread, by the generic passes.
 template <class S, int NV, int LEVELS>
 void check_fixed_tree(const std::string& robot) {
   const Model model = robot_model(robot);
@@ -214,16 +216,19 @@ void check_fixed_tree(const std::string& robot) {
   for (const bool tau_input : {true, false}) {
     for (const OutputCase& c : kBlockCases) {
       const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");
-      CudaBatch<S> tree(states, model.nv, tau_input), reversed(states, model.nv, tau_input);
-      tree.poison();
-      reversed.poison();
-      const auto status = run_block_on_host<S, Tree, kPerBatch, true, true>(model, tree, c, tau_input, false);
-      for (std::size_t k = 0; k < kStates; ++k) ASSERT_EQ(status[k], 0u) << where << " state " << k;
-      const Comparison cmp = compare_with_core(model, tree, c, tau_input);
-      ASSERT_TRUE(cmp.message.empty()) << where << ", tree fixed: " << cmp.message;
-      EXPECT_TRUE(cmp.within_bounds<S>()) << where << ", tree fixed: " << cmp.summary();
-      run_block_on_host<S, Tree, kPerBatch, true, true>(model, reversed, c, tau_input, true, 128);
-      ASSERT_TRUE(same_outputs(tree, reversed)) << where << ": the tree fixed, the items in reverse order, as 128 threads";
+      for (const int threads : {128, 1}) {
+        const std::string shape = ", tree fixed, " + std::to_string(threads) + " threads";
+        CudaBatch<S> tree(states, model.nv, tau_input), reversed(states, model.nv, tau_input);
+        tree.poison();
+        reversed.poison();
+        const auto status = run_block_on_host<S, Tree, kPerBatch, true, true>(model, tree, c, tau_input, false, threads);
+        for (std::size_t k = 0; k < kStates; ++k) ASSERT_EQ(status[k], 0u) << where << shape << " state " << k;
+        const Comparison cmp = compare_with_core(model, tree, c, tau_input);
+        ASSERT_TRUE(cmp.message.empty()) << where << shape << ": " << cmp.message;
+        EXPECT_TRUE(cmp.within_bounds<S>()) << where << shape << ": " << cmp.summary();
+        run_block_on_host<S, Tree, kPerBatch, true, true>(model, reversed, c, tau_input, true, threads);
+        ASSERT_TRUE(same_outputs(tree, reversed)) << where << shape << ": the items in reverse order";
+      }
     }
   }
 }

@@ -69,8 +69,9 @@ TEST(CudaChunkPlan, ALaunchTakesTheShapeOfItsChunk) {
   EXPECT_EQ(block_shape_for({}, talos, chunk_states(65536, 65536, kAutomatic, talos), true).threads_per_state, 128);
 }
 
-// The defaults: the compact kernel with its lean working set; the lean working set without the
-// compact kernel is refused (the plugin turns it off with block_compact: false unless asked for).
+// The defaults: the compact kernel with its lean working set and M^-1 by the tree's chains; the
+// lean working set without the compact kernel is refused (the plugin turns it off with
+// block_compact: false unless asked for); the chains without it are ignored (they are its).
 TEST(CudaChunkPlan, TheLeanCompactKernelIsTheDefault) {
   KernelOptions options;
   EXPECT_TRUE(options.block_compact);
@@ -81,6 +82,7 @@ TEST(CudaChunkPlan, TheLeanCompactKernelIsTheDefault) {
   ASSERT_FALSE(s);
   EXPECT_NE(s.message().find("block_lean without block_compact"), std::string::npos) << s.message();
   options.block_lean = false;
+  EXPECT_TRUE(options.block_tree_chains);
   EXPECT_TRUE(check_kernel_options(options));
 }
 

@@ -281,7 +281,8 @@ TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
   hopper.max_blocks = 32;
   for (std::string_view name : embedded_robot_names()) {
     const Model model = load_embedded(std::string(name));
-    const cuda::BlockBuild build{true, cuda::compact_register_cap(model, true, {}, hopper), true};
+    // (M^-1 by the tree's chains where they fit, as the plugin's default, block_tree_chains)
+    const cuda::BlockBuild build{true, cuda::compact_register_cap(model, true, {}, hopper), true, true};
     for (const cuda::KernelScalars scalars : {cuda::KernelScalars::kF64, cuda::KernelScalars::kF64ForF32})
       expect_build_holds_its_cap(model, scalars, build,
                                  std::string(name) + " lean " + cuda::kernel_scalars_name(scalars));
@@ -303,6 +304,15 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
 TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
   expect_talos_build_holds_its_cap({true, 64, true}, "lean", "lean working set");
+}
+
+// The same with M^-1 by the tree's chains (device/block_tree_chains.hpp; the option
+// block_tree_chains, the plugin's default; the test above has it off): without spills at 64
+// registers once the outputs' pointers were taken after M^-1 (with them taken before, 8 to 52
+// bytes of spills in the forms tried).
+TEST(KernelSource, LeanTalosKernelByChainsHoldsItsRegisterCapWithoutSpills) {
+  SKIP_WITHOUT_NVRTC();
+  expect_talos_build_holds_its_cap({true, 64, true, true}, "lean, M^-1 by the tree's chains", "static constexpr bool chains = true;");
 }
 
 // A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.

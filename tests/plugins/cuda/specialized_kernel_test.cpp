@@ -213,6 +213,7 @@ void compare_block_kernels(CudaInstance& instance, const std::string& robot, int
 struct BlockBuildCase {
   bool compact, lean;
   int threads_per_state;  // 0: the automatic shape (block_shape_for)
+  bool tree_chains = false;
 };
 void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase> builds) {
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
@@ -223,6 +224,7 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       KernelOptions options;
       options.block_compact = build.compact;
       options.block_lean = build.lean;
+      options.block_tree_chains = build.tree_chains;
       options.block_shape.threads_per_state = build.threads_per_state;
       ASSERT_TRUE(instance->set_kernel_options(options));
       if (Status s = instance->specialize(""); !s) {
@@ -232,6 +234,8 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       const std::string description = instance->kernel_description();
       EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
       EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
+      EXPECT_EQ(description.find(", M^-1 by the tree's chains") != std::string::npos, build.tree_chains)
+          << name << ": " << description;
       std::printf("%s (%d threads a state, 0 automatic): %s\n", name, build.threads_per_state, description.c_str());
       compare_block_kernels(*instance, name, model.nv);
     }
@@ -245,6 +249,16 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
 // in chunks, and talos_reduced's 1000 states in chunks of at most 256) and at 256.
 TEST(CudaRobotSpecificKernel, LeanKernelMatchesTheGenericOne) {
   expect_builds_match_the_generic_kernel({{true, true, 128}, {true, true, 0}, {true, true, 256}});
+}
+
+// The lean build with M^-1 by the tree's chains (block_tree_chains; talos_reduced's fit one warp,
+// hyq's and iiwa14's P do not fit their packed matrices and take the level passes): at 128 threads
+// a state (the chains on the first warp, the other three on d tau/d qd), at the automatic shape,
+// at 32 (one warp: the chains, then d tau/d qd) and at 48 (not whole warps: every thread through
+// the chains' steps, synced as the group).
+TEST(CudaRobotSpecificKernel, LeanKernelByChainsMatchesTheGenericOne) {
+  expect_builds_match_the_generic_kernel(
+      {{true, true, 128, true}, {true, true, 0, true}, {true, true, 32, true}, {true, true, 48, true}});
 }
 
 // The compact build with its full working set (block_lean: false).
