@@ -300,7 +300,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     const BlockBuild& build = k->build();
     if (build.compact) parts += ", compact";
     if (build.lean) parts += ", lean working set";
-    if (build.tree_chains) parts += ", M^-1 by the tree's chains";
+    if (build.tree_chains) parts += ", M^-1 by the tree's chains where they fit";
     if (build.register_cap > 0) parts += ", at most " + std::to_string(build.register_cap) + " registers a thread";
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64

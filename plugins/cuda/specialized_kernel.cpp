@@ -35,8 +35,9 @@ Status device_register_cap(const Model& model, bool lean, const BlockShape& shap
 }  // namespace
 
 Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    bool lean, bool tree_chains, const BlockShape& shape, int device, std::size_t max_shared_bytes,
-                                    const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out) {
+                                    bool lean, bool tree_chains, const BlockShape& shape, int device,
+                                    std::size_t max_shared_bytes, const std::string& cache_dir,
+                                    std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());

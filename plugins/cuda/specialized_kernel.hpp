@@ -35,8 +35,8 @@ class SpecializedBlockKernel {
   /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
   /// or loading failed: the message says which).
   static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, bool lean,
-                     bool tree_chains, const BlockShape& shape, int device, std::size_t max_shared_bytes, const std::string& cache_dir,
-                     std::unique_ptr<SpecializedBlockKernel>& out);
+                     bool tree_chains, const BlockShape& shape, int device, std::size_t max_shared_bytes,
+                     const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
 
   /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else
   /// cudaErrorInvalidValue).

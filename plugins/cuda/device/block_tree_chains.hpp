@@ -330,10 +330,12 @@ RBDGRAD_HD void tree_mass_inverse(const Model& m, const S* axis, const S* Ic_S, 
   constexpr int n = FixedSizes<Model>::nv;
   if constexpr (TreeConstants<Model>::known) {
     constexpr TreeChains<n> chains = tree_chains<n>(ConstantParent<Model>{});
-    tree_chains_mass_inverse<kPairs, chains.rounds, chains.slots>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g, extra_items, extra);
+    tree_chains_mass_inverse<kPairs, chains.rounds, chains.slots>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse,
+                                                                  row_at, g, extra_items, extra);
   } else {
     const TreeChains<n> chains = tree_chains<n>(ViewParent<Model>{m});
-    tree_chains_mass_inverse<kPairs, n, n>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g, extra_items, extra);
+    tree_chains_mass_inverse<kPairs, n, n>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g, extra_items,
+                                           extra);
   }
 }
 

@@ -179,7 +179,8 @@ AxesInputs random_axes(const Model& model, unsigned seed, int massless) {
   for (int k = 0; k < n; ++k) {
     Eigen::Matrix<double, 6, 6> A;
     for (int e = 0; e < 36; ++e) A(e / 6, e % 6) = u(rng);
-    I[k] = k == massless ? Eigen::Matrix<double, 6, 6>::Zero() : (A * A.transpose() + 0.5 * Eigen::Matrix<double, 6, 6>::Identity()).eval();
+    const Eigen::Matrix<double, 6, 6> spd = A * A.transpose() + 0.5 * Eigen::Matrix<double, 6, 6>::Identity();
+    I[k] = k == massless ? Eigen::Matrix<double, 6, 6>::Zero().eval() : spd;
   }
   AxesInputs in;
   in.axis.resize(6 * n);

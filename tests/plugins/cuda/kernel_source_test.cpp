@@ -312,7 +312,8 @@ TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithoutSpills) {
 // bytes of spills in the forms tried).
 TEST(KernelSource, LeanTalosKernelByChainsHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
-  expect_talos_build_holds_its_cap({true, 64, true, true}, "lean, M^-1 by the tree's chains", "static constexpr bool chains = true;");
+  expect_talos_build_holds_its_cap({true, 64, true, true}, "lean, M^-1 by the tree's chains",
+                                   "static constexpr bool chains = true;");
 }
 
 // A scene's kernels (issue 8): each stage set compiles, and leaving stages out makes less code.
