@@ -25,6 +25,7 @@
 #include "block_mass_inverse.hpp"
 #include "block_tree_products.hpp"  // RBDGRAD_TREE_UNROLL
 #include "model_view.hpp"
+#include "scalar_pairs.hpp"
 #include "thread_group.hpp"
 
 namespace rbdgrad::cuda {
@@ -121,41 +122,15 @@ template <class Model>
 RBDGRAD_HD bool tree_chains_fit(const Model& m, int matrix_scalars) {
   constexpr int n = FixedSizes<Model>::nv;
   static_assert(n > 0 && FixedTree<Model>::known, "the tree's chains need the tree at compile time");
+  const auto fit = [&](const TreeChains<n>& chains) {
+    return chains.fits && kChainScratch * (chains.slots + kChainsPerWarp) <= matrix_scalars;
+  };
   if constexpr (TreeConstants<Model>::known) {
     constexpr TreeChains<n> chains = tree_chains<n>(ConstantParent<Model>{});
-    return chains.fits && kChainScratch * (chains.slots + kChainsPerWarp) <= matrix_scalars;
+    return fit(chains);
   } else {
-    const TreeChains<n> chains = tree_chains<n>(ViewParent<Model>{m});
-    return chains.fits && kChainScratch * (chains.slots + kChainsPerWarp) <= matrix_scalars;
+    return fit(tree_chains<n>(ViewParent<Model>{m}));
   }
-}
-
-// p[0] and p[1]: one load where kPairs (load_six's)
-template <bool kPairs, class S>
-RBDGRAD_HD void load_pair_or_two(const S* p, S& a, S& b) {
-  if constexpr (kPairs) {
-    load_pair(p, a, b);
-  } else {
-    a = p[0];
-    b = p[1];
-  }
-}
-
-// the same for a store (p aligned to 2 sizeof(S) where kPairs)
-template <bool kPairs, class S>
-RBDGRAD_HD void store_pair_or_two(S* p, S a, S b) {
-#if defined(__CUDA_ARCH__)
-  if constexpr (kPairs) {
-    if constexpr (sizeof(S) == sizeof(double)) {
-      *reinterpret_cast<double2*>(p) = double2{a, b};
-    } else {
-      *reinterpret_cast<float2*>(p) = float2{a, b};
-    }
-    return;
-  }
-#endif
-  p[0] = a;
-  p[1] = b;
 }
 
 // One lane's chain in a round, and its entry e. What a lane carries from step to step (row e of P)

@@ -39,6 +39,43 @@ RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
 #endif
 }
 
+// a and b into p[0] and p[1]; p aligned to 2 sizeof(S)
+template <class S>
+RBDGRAD_HD void store_pair(S* p, S a, S b) {
+#if defined(__CUDA_ARCH__)
+  if constexpr (sizeof(S) == sizeof(double)) {
+    *reinterpret_cast<double2*>(p) = double2{a, b};
+  } else {
+    *reinterpret_cast<float2*>(p) = float2{a, b};
+  }
+#else
+  if (reinterpret_cast<std::uintptr_t>(p) % (2 * sizeof(S)) != 0) std::abort();
+  p[0] = a;
+  p[1] = b;
+#endif
+}
+
+// p[0] and p[1]: one load (kPairs, p aligned to 2 sizeof(S)), else two
+template <bool kPairs, class S>
+RBDGRAD_HD void load_pair_or_two(const S* p, S& a, S& b) {
+  if constexpr (kPairs) {
+    load_pair(p, a, b);
+  } else {
+    a = p[0];
+    b = p[1];
+  }
+}
+// the same for a store
+template <bool kPairs, class S>
+RBDGRAD_HD void store_pair_or_two(S* p, S a, S b) {
+  if constexpr (kPairs) {
+    store_pair(p, a, b);
+  } else {
+    p[0] = a;
+    p[1] = b;
+  }
+}
+
 // the 6-vector at p into x: as three pairs (kPairs, p aligned to 2 sizeof(S)), else a scalar a
 // load (the layouts that do not align their vectors)
 template <bool kPairs, class S>
