@@ -26,13 +26,16 @@ std::string block_stages_text(int stages);
 /// How the block kernel for a robot is built: compact (block_kernel_entry.hpp: the robot's scalar
 /// constants in device memory, the matrices packed by the roots' blocks), a cap on its registers a
 /// thread (register_cap.hpp; 0: none), lean: the compact kernel's lean working set
-/// (block_workspace.hpp; ignored without compact), and tree_chains: the lean build's M^-1 by the
-/// tree's chains where they fit (device/block_tree_chains.hpp; ignored without lean).
+/// (block_workspace.hpp; ignored without compact), tree_chains: the lean build's M^-1 by the
+/// tree's chains where they fit (device/block_tree_chains.hpp; ignored without lean), and
+/// tree_columns: with them, M^-1's columns by the tree's blocks (device/block_tree_columns.hpp;
+/// ignored without tree_chains; not yet timed on a GPU, so no plugin option turns it on).
 struct BlockBuild {
   bool compact = false;
   int register_cap = 0;
   bool lean = false;
   bool tree_chains = false;
+  bool tree_columns = false;
 };
 
 /// The program for `model` in `scalars`, compiled for the GPU architecture sm_<arch> (90 for

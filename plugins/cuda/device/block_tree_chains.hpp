@@ -15,14 +15,15 @@
 // talos_reduced's kernel at its 64 registers). A chain whose bottom has several children starts
 // from the sum of their chains' P, which they leave there too; it runs in a later round. Every
 // round's chains fit one warp (five chains of six lanes); in a group of whole warps the first
-// walks them, each step's halves synced as a warp, then finds M^-1's columns (inverse_column), a
-// thread a column, while the other warps run the caller's work (d tau/d qd's rows): one synced
-// pass for the caller, where the generic form takes a pass a level and one for the columns.
+// walks them, each step's halves synced as a warp, then finds M^-1's columns (inverse_column, or
+// block_tree_columns.hpp's), a thread a column, while the other warps run the caller's work
+// (d tau/d qd's rows): one synced pass for the caller, where the generic form takes a pass a level
+// and one for the columns.
 // The sums are those of the generic passes in another order, so the results match the core as
 // closely, not bit for bit (the block state tests' FixedTreeMatchesTheCore).
 #pragma once
 
-#include "block_mass_inverse.hpp"
+#include "block_tree_columns.hpp"
 #include "block_tree_products.hpp"  // RBDGRAD_TREE_UNROLL
 #include "model_view.hpp"
 #include "scalar_pairs.hpp"
@@ -243,13 +244,16 @@ RBDGRAD_HD void chain_pivot(const TreeChains<N>& t, const ChainLane& c, int s, c
 RBDGRAD_HD bool tree_chains_split(const ThreadGroup& g) { return g.size % 32 == 0 && g.size >= 64; }
 
 // The steps of every round on the group t (lanes as items; synced as a warp where t is one), then
-// M^-1's columns. kRounds, kSlots: chains.rounds and chains.slots, or more (the host tests' tables,
-// built at run time): constants, so that the loops over them unroll before the table is read,
-// and every read of it folds to a constant (else ptxas keeps the table on the stack).
-template <bool kPairs, int kRounds, int kSlots, class S, class Model, int N, class RowAt>
-RBDGRAD_HD void tree_chains_walk(const TreeChains<N>& chains, const Model& m, const S* axis, const S* Ic_S, S* IA_S,
-                                 S* pivots, std::uint32_t* failed, S* inverse, const RowAt& row_at,
-                                 const ThreadGroup& t) {
+// M^-1's columns: inverse_column's, or by the tree's blocks where the model type says so
+// (TreeConstants' columns; block_tree_columns.hpp, by the table `columns`). kRounds, kSlots,
+// kBlocks, kSegments: chains.rounds, chains.slots, columns.blocks and columns.segments, or more
+// (the host tests' tables, built at run time): constants, so that the loops over them unroll
+// before the table is read, and every read of it folds to a constant (else ptxas keeps the table
+// on the stack).
+template <bool kPairs, int kRounds, int kSlots, int kBlocks, int kSegments, class S, class Model, int N, class RowAt>
+RBDGRAD_HD void tree_chains_walk(const TreeChains<N>& chains, const TreeColumns<N>& columns, const Model& m,
+                                 const S* axis, const S* Ic_S, S* IA_S, S* pivots, std::uint32_t* failed, S* inverse,
+                                 const RowAt& row_at, const ThreadGroup& t) {
   RBDGRAD_TREE_UNROLL
   for (int round = 0; round < kRounds; ++round) {
     if (round >= chains.rounds) break;
@@ -269,17 +273,24 @@ RBDGRAD_HD void tree_chains_walk(const TreeChains<N>& chains, const Model& m, co
     }
     t.sync();
   }
-  t.for_each(N, [&](int j) { inverse_column<kPairs>(m, axis, IA_S, pivots, inverse, row_at, j); });
+  t.for_each(N, [&](int j) {
+    if constexpr (TreeConstants<Model>::columns)
+      tree_inverse_column<kPairs, kBlocks, kSegments>(columns, axis, IA_S, pivots, inverse, row_at, j);
+    else
+      inverse_column<kPairs>(m, axis, IA_S, pivots, inverse, row_at, j);
+  });
 }
 
 // U = IA S and the pivots into IA_S and pivots (as articulated_axes), then M^-1 into inverse (as
 // inverse_column for every column; its rows at row_at); extra(e) for e in [0, extra_items), work
 // independent of this: on the group's other warps where tree_chains_split(g), else after it. Needs
 // tree_chains_fit(m, M^-1's scalars); the caller syncs after.
-template <bool kPairs, int kRounds, int kSlots, class S, class Model, int N, class RowAt, class Extra>
-RBDGRAD_HD void tree_chains_mass_inverse(const TreeChains<N>& chains, const Model& m, const S* axis, const S* Ic_S,
-                                         S* IA_S, S* pivots, std::uint32_t* failed, S* inverse, const RowAt& row_at,
-                                         const ThreadGroup& g, int extra_items, const Extra& extra) {
+template <bool kPairs, int kRounds, int kSlots, int kBlocks, int kSegments, class S, class Model, int N, class RowAt,
+          class Extra>
+RBDGRAD_HD void tree_chains_mass_inverse(const TreeChains<N>& chains, const TreeColumns<N>& columns, const Model& m,
+                                         const S* axis, const S* Ic_S, S* IA_S, S* pivots, std::uint32_t* failed,
+                                         S* inverse, const RowAt& row_at, const ThreadGroup& g, int extra_items,
+                                         const Extra& extra) {
 #if defined(__CUDA_ARCH__)
   if (tree_chains_split(g)) {
     if (g.rank >= 32) {
@@ -289,11 +300,13 @@ RBDGRAD_HD void tree_chains_mass_inverse(const TreeChains<N>& chains, const Mode
     ThreadGroup warp = g;
     warp.size = 32;
     warp.warp_sync = true;
-    tree_chains_walk<kPairs, kRounds, kSlots>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, warp);
+    tree_chains_walk<kPairs, kRounds, kSlots, kBlocks, kSegments>(chains, columns, m, axis, Ic_S, IA_S, pivots, failed,
+                                                                  inverse, row_at, warp);
     return;
   }
 #endif
-  tree_chains_walk<kPairs, kRounds, kSlots>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g);
+  tree_chains_walk<kPairs, kRounds, kSlots, kBlocks, kSegments>(chains, columns, m, axis, Ic_S, IA_S, pivots, failed,
+                                                                inverse, row_at, g);
   g.for_each(extra_items, extra);
 }
 
@@ -305,12 +318,16 @@ RBDGRAD_HD void tree_mass_inverse(const Model& m, const S* axis, const S* Ic_S, 
   constexpr int n = FixedSizes<Model>::nv;
   if constexpr (TreeConstants<Model>::known) {
     constexpr TreeChains<n> chains = tree_chains<n>(ConstantParent<Model>{});
-    tree_chains_mass_inverse<kPairs, chains.rounds, chains.slots>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse,
-                                                                  row_at, g, extra_items, extra);
+    // (the columns' table only where they take it: the kernel without it is the one timed)
+    constexpr TreeColumns<n> columns =
+        TreeConstants<Model>::columns ? tree_columns<n>(ConstantParent<Model>{}) : TreeColumns<n>{};
+    tree_chains_mass_inverse<kPairs, chains.rounds, chains.slots, columns.blocks, columns.segments>(
+        chains, columns, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g, extra_items, extra);
   } else {
     const TreeChains<n> chains = tree_chains<n>(ViewParent<Model>{m});
-    tree_chains_mass_inverse<kPairs, n, n>(chains, m, axis, Ic_S, IA_S, pivots, failed, inverse, row_at, g, extra_items,
-                                           extra);
+    const TreeColumns<n> columns = tree_columns<n>(ViewParent<Model>{m});
+    tree_chains_mass_inverse<kPairs, n, n, n, n>(chains, columns, m, axis, Ic_S, IA_S, pivots, failed, inverse,
+                                                 row_at, g, extra_items, extra);
   }
 }
 

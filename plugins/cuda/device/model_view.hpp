@@ -142,17 +142,20 @@ struct FixedTree<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>> {
 
 // A joint's parent as a constant expression, without a view (known: the model type's tree is
 // constexpr): what a table built at compile time from the tree needs (block_tree_chains.hpp); and
-// whether M^-1 goes by the tree's chains (the kernel compiled for a robot: as its build says; the
-// host tests' views: where they fit).
+// whether M^-1 goes by the tree's chains, and its columns then by the tree's blocks
+// (block_tree_columns.hpp) (the kernel compiled for a robot: as its build says; the host tests'
+// views: where they fit).
 template <class Model>
 struct TreeConstants {
   static constexpr bool known = false;
   static constexpr bool chains = true;
+  static constexpr bool columns = true;
 };
 template <class S, int NV, int LEVELS, int MATRIX_SCALARS, class Tree>
 struct TreeConstants<TreeModelView<S, NV, LEVELS, MATRIX_SCALARS, Tree>> {
   static constexpr bool known = true;
   static constexpr bool chains = Tree::chains;
+  static constexpr bool columns = Tree::columns;
   static RBDGRAD_HD constexpr int parent(int i) { return Tree::parent(i); }
 };
 
