@@ -14,6 +14,7 @@
 #include <Eigen/Dense>
 
 #include "../../support/test_models.hpp"
+#include "nested_junctions_tree.hpp"
 #include "device/block_tree_chains.hpp"
 #include "flat_model.hpp"
 
@@ -44,10 +45,7 @@ struct FixedTree<testing::ChainTestView<NV>> {
 namespace rbdgrad::testing {
 namespace {
 
-// a tree whose junctions nest: chains [4, 5] and [6, 7] meet at 3, the chain [2, 3] and [8, 10]
-// at 1, the chain [0, 1] on top (three rounds); then a root with two leaves (a chain of one joint
-// whose bottom is a junction)
-const std::vector<int> kNestedJunctions = {-1, 0, 1, 2, 3, 4, 3, 6, 1, 8, 9, -1, 11, 11};
+const std::vector<int> kNestedJunctions = NestedJunctions::parents();
 
 template <int NV>
 cuda::TreeChains<NV> chains_of(const std::vector<int>& parent) {
@@ -151,16 +149,8 @@ TEST(TreeChains, MoreChainsInARoundThanAWarpHoldsDoNotFit) {
   EXPECT_TRUE(chains_of<6>({-1, 0, 0, 0, 0, 0}).fits);
 }
 
-// a tree whose parents are constant expressions, as the kernel compiled for a robot has them
-struct ConstexprTree {
-  static constexpr int parent(int i) {
-    constexpr int p[] = {-1, 0, 1, 2, 3, 4, 3, 6, 1, 8, 9, -1, 11, 11};
-    return p[i];
-  }
-};
-
 TEST(TreeChains, BuildAtCompileTime) {
-  constexpr cuda::TreeChains<14> t = cuda::tree_chains<14>([](int i) { return ConstexprTree::parent(i); });
+  constexpr cuda::TreeChains<14> t = cuda::tree_chains<14>([](int i) { return NestedJunctions::parent(i); });
   static_assert(t.fits && t.rounds == 3 && t.slots == 6, "the nested junctions' chains, at compile time");
   static_assert(t.count[0] == 5 && t.count[1] == 2 && t.count[2] == 1, "chains by round");
   EXPECT_EQ(t.bottom[2][0], 1);
@@ -243,13 +233,6 @@ void check_mass_inverse(const std::string& name, const Model& model, unsigned se
       for (int j = m.root_of[i]; j < m.subtree_end[m.root_of[i]]; ++j)
         EXPECT_PRED2(close, chain_inverse[NV * i + j], inverse[NV * i + j]) << where << " M^-1 (" << i << ", " << j << ")";
   }
-}
-
-Model model_with_tree(const std::vector<int>& parent) {
-  Model model = random_model(5, static_cast<int>(parent.size()), TreeShape::kChain);
-  model.parent = parent;
-  finalize_topology(model);
-  return model;
 }
 
 TEST(TreeChains, MassInverseMatchesTheLevelPasses) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "../../support/test_models.hpp"
+#include "nested_junctions_tree.hpp"
 #include "device/block_tree_columns.hpp"
 #include "flat_model.hpp"
 
@@ -76,15 +77,7 @@ void check_columns(const std::string& name, const Model& model) {
   EXPECT_EQ(next, NV) << name;
 }
 
-Model model_with_tree(const std::vector<int>& parent) {
-  Model model = random_model(5, static_cast<int>(parent.size()), TreeShape::kChain);
-  model.parent = parent;
-  finalize_topology(model);
-  return model;
-}
-
-// nested junctions under one root, then a root with two leaves
-const std::vector<int> kNestedJunctions = {-1, 0, 1, 2, 3, 4, 3, 6, 1, 8, 9, -1, 11, 11};
+const std::vector<int> kNestedJunctions = NestedJunctions::parents();
 
 TEST(TreeColumns, BlocksShapesAndSegmentsFollowTheTree) {
   check_columns<14>("nested junctions", model_with_tree(kNestedJunctions));
@@ -105,16 +98,8 @@ TEST(TreeColumns, BlocksShapesAndSegmentsFollowTheTree) {
     check_columns<12>("random tree " + std::to_string(seed), random_model(seed, 12, TreeShape::kBranching));
 }
 
-// a tree whose parents are constant expressions, as the kernel compiled for a robot has them
-struct ConstexprTree {
-  static constexpr int parent(int i) {
-    constexpr int p[] = {-1, 0, 1, 2, 3, 4, 3, 6, 1, 8, 9, -1, 11, 11};
-    return p[i];
-  }
-};
-
 TEST(TreeColumns, BuildAtCompileTime) {
-  constexpr cuda::TreeColumns<14> t = cuda::tree_columns<14>([](int i) { return ConstexprTree::parent(i); });
+  constexpr cuda::TreeColumns<14> t = cuda::tree_columns<14>([](int i) { return NestedJunctions::parent(i); });
   static_assert(t.blocks == 2 && t.size[0] == 11 && t.size[1] == 3, "the nested junctions' blocks, at compile time");
   // [0, 1], [2, 3], [4, 5], [6, 7], [8, 10], [11], [12], [13]
   static_assert(t.segments == 8 && t.segment_top[4] == 8 && t.segment_bottom[4] == 10, "its segments");
