@@ -286,10 +286,13 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
                                                  : scalars == KernelScalars::kF64 ? specialized_f64_
                                                                                   : specialized_f64_for_f32_;
     k.reset();
-    const Status s =
-        SpecializedBlockKernel::load(model_, scalars, block_stages(), kernel_.block_compact, kernel_.block_lean,
-                                     kernel_.block_tree_chains,
-                                     kernel_.block_shape, device_, max_shared_bytes_, cache_dir, k);
+    BlockBuild wanted;
+    wanted.compact = kernel_.block_compact;
+    wanted.lean = kernel_.block_lean;
+    wanted.tree_chains = kernel_.block_tree_chains;
+    wanted.tree_columns = kernel_.block_tree_columns;
+    const Status s = SpecializedBlockKernel::load(model_, scalars, block_stages(), wanted, kernel_.block_shape,
+                                                  device_, max_shared_bytes_, cache_dir, k);
     if (!s && first) first = s;
     parts += std::string(parts.empty() ? "" : "; ") + kernel_scalars_name(scalars) + ": ";
     if (!s) {
@@ -301,6 +304,7 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
     if (build.compact) parts += ", compact";
     if (build.lean) parts += ", lean working set";
     if (build.tree_chains) parts += ", M^-1 by the tree's chains where they fit";
+    if (build.tree_columns) parts += ", its columns by the tree's blocks";
     if (build.register_cap > 0) parts += ", at most " + std::to_string(build.register_cap) + " registers a thread";
   }
   // the warp kernel for the robot, its f32 entry points where f32 batches compute in f64

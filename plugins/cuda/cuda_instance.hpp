@@ -134,6 +134,11 @@ struct KernelOptions {
   // on d tau/d qd's rows; on an H200 its kernel 5.4% faster at 65536 f64 states, 4.8% f32
   // batches, docs/benchmarks/cuda.md). Read by specialize(); ignored without block_lean.
   bool block_tree_chains = true;
+  // with the chains, M^-1's columns by the tree's blocks (device/block_tree_columns.hpp: the
+  // column's ancestors and its block's segments as constants, the same bits as the generic
+  // columns). Off until a GPU times it (docs/benchmarks/cuda.md). Read by specialize(); ignored
+  // without block_tree_chains.
+  bool block_tree_columns = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;

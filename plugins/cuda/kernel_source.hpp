@@ -29,7 +29,7 @@ std::string block_stages_text(int stages);
 /// (block_workspace.hpp; ignored without compact), tree_chains: the lean build's M^-1 by the
 /// tree's chains where they fit (device/block_tree_chains.hpp; ignored without lean), and
 /// tree_columns: with them, M^-1's columns by the tree's blocks (device/block_tree_columns.hpp;
-/// ignored without tree_chains; not yet timed on a GPU, so no plugin option turns it on).
+/// ignored without tree_chains; the plugin option block_tree_columns, off until a GPU times it).
 struct BlockBuild {
   bool compact = false;
   int register_cap = 0;

@@ -34,18 +34,19 @@ Status device_register_cap(const Model& model, bool lean, const BlockShape& shap
 
 }  // namespace
 
-Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, bool compact,
-                                    bool lean, bool tree_chains, const BlockShape& shape, int device,
-                                    std::size_t max_shared_bytes, const std::string& cache_dir,
+Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, int stages, const BlockBuild& wanted,
+                                    const BlockShape& shape, int device, std::size_t max_shared_bytes,
+                                    const std::string& cache_dir,
                                     std::unique_ptr<SpecializedBlockKernel>& out) {
   int arch = 0;
   if (Status s = device_arch(device, arch); !s) return s;
   std::unique_ptr<SpecializedBlockKernel> k(new SpecializedBlockKernel());
   k->scalars_ = scalars;
-  k->build_.compact = compact;
-  k->build_.lean = compact && lean;
-  k->build_.tree_chains = k->build_.lean && tree_chains;
-  if (compact && scalars != KernelScalars::kF32)
+  k->build_.compact = wanted.compact;
+  k->build_.lean = wanted.compact && wanted.lean;
+  k->build_.tree_chains = k->build_.lean && wanted.tree_chains;
+  k->build_.tree_columns = k->build_.tree_chains && wanted.tree_columns;
+  if (wanted.compact && scalars != KernelScalars::kF32)
     if (Status s = device_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
                                        max_shared_bytes, cache_dir, k->library_);

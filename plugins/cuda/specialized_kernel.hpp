@@ -27,15 +27,14 @@ class SpecializedBlockKernel {
  public:
   /// Builds the kernel of `model` in `scalars` with `stages` (block_stages: a scene's, or
   /// kPerBatch) for `device` (current), its shared memory allowed up to `max_shared_bytes`.
-  /// compact: the compact kernel (block_kernel_entry.hpp), lean: with its lean working set
-  /// (block_workspace.hpp; ignored without compact), tree_chains: M^-1 by the tree's chains
-  /// (BlockBuild; ignored without lean), its registers capped for blocks of
-  /// `shape` (the instance's, resolved for a large batch) where it computes in f64
+  /// `wanted`: compact, lean, tree_chains and tree_columns as BlockBuild says (each ignored
+  /// without the one before it); its register_cap is not read: the kernel's registers are capped
+  /// for blocks of `shape` (the instance's, resolved for a large batch) where it computes in f64
   /// (register_cap.hpp; the f32 arithmetic's articulated-body pass spills at 64 registers).
   /// `cache_dir` as compile_with_cache's dir. Errors: unavailable (no NVRTC), internal (compiling
   /// or loading failed: the message says which).
-  static Status load(const Model& model, KernelScalars scalars, int stages, bool compact, bool lean,
-                     bool tree_chains, const BlockShape& shape, int device, std::size_t max_shared_bytes,
+  static Status load(const Model& model, KernelScalars scalars, int stages, const BlockBuild& wanted,
+                     const BlockShape& shape, int device, std::size_t max_shared_bytes,
                      const std::string& cache_dir, std::unique_ptr<SpecializedBlockKernel>& out);
 
   /// As launch_block_fused (block_launch.hpp), S and IO those the kernel was built for (else

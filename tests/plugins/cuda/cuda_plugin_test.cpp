@@ -114,6 +114,10 @@ TEST(CudaPlugin, OptionsAreChecked) {
            {{{"block_lean", "true"}, {"specialize", "false"}}, "option 'block_lean' needs 'specialize'"},
            {{{"block_lean", "true"}, {"block_compact", "false"}}, "block_lean without block_compact"},
            {{{"block_tree_chains", "true"}, {"block_lean", "false"}}, "option 'block_tree_chains' needs 'block_lean'"},
+           {{{"block_tree_columns", "true"}, {"block_tree_chains", "false"}},
+            "option 'block_tree_columns' needs 'block_tree_chains'"},
+           {{{"block_tree_columns", "true"}, {"block_compact", "false"}},
+            "option 'block_tree_columns' needs 'block_tree_chains'"},
        }) {
     create(api(), iiwa().desc(), bad.options, &e);
     ASSERT_TRUE(e) << bad.says;
@@ -122,7 +126,7 @@ TEST(CudaPlugin, OptionsAreChecked) {
   }
   for (const auto& [name, value] : {std::pair{"max_chunks", "9"}, {"max_chunks", "0"}, {"chunk_min_states", "-1"}, {"f32_compute", "f16"}, {"mapped_pinned_max_kib", "-1"},
                                      {"warp_kernel", "maybe"}, {"block_compact", "sometimes"}, {"block_lean", "2"},
-                                     {"block_tree_chains", "on"}}) {
+                                     {"block_tree_chains", "on"}, {"block_tree_columns", "1"}}) {
     create(api(), iiwa().desc(), {{name, value}}, &e);
     ASSERT_TRUE(e) << name << "=" << value;
     EXPECT_EQ(e->code, RBDGRAD_ERROR_INVALID_ARGUMENT) << e->message;

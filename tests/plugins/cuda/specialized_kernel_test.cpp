@@ -214,6 +214,7 @@ struct BlockBuildCase {
   bool compact, lean;
   int threads_per_state;  // 0: the automatic shape (block_shape_for)
   bool tree_chains = false;
+  bool tree_columns = false;
 };
 void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase> builds) {
   for (const char* name : {"talos_reduced", "hyq", "iiwa14"}) {
@@ -225,6 +226,7 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       options.block_compact = build.compact;
       options.block_lean = build.lean;
       options.block_tree_chains = build.tree_chains;
+      options.block_tree_columns = build.tree_columns;
       options.block_shape.threads_per_state = build.threads_per_state;
       ASSERT_TRUE(instance->set_kernel_options(options));
       if (Status s = instance->specialize(""); !s) {
@@ -235,6 +237,8 @@ void expect_builds_match_the_generic_kernel(std::initializer_list<BlockBuildCase
       EXPECT_EQ(description.find(", compact") != std::string::npos, build.compact) << name << ": " << description;
       EXPECT_EQ(description.find(", lean working set") != std::string::npos, build.lean) << name << ": " << description;
       EXPECT_EQ(description.find(", M^-1 by the tree's chains") != std::string::npos, build.tree_chains)
+          << name << ": " << description;
+      EXPECT_EQ(description.find(", its columns by the tree's blocks") != std::string::npos, build.tree_columns)
           << name << ": " << description;
       std::printf("%s (%d threads a state, 0 automatic): %s\n", name, build.threads_per_state, description.c_str());
       compare_block_kernels(*instance, name, model.nv);
@@ -259,6 +263,15 @@ TEST(CudaRobotSpecificKernel, LeanKernelMatchesTheGenericOne) {
 TEST(CudaRobotSpecificKernel, LeanKernelByChainsMatchesTheGenericOne) {
   expect_builds_match_the_generic_kernel(
       {{true, true, 128, true}, {true, true, 0, true}, {true, true, 32, true}, {true, true, 48, true}});
+}
+
+// The same with M^-1's columns by the tree's blocks (block_tree_columns; device/block_tree_columns.hpp,
+// whose host test has them bit-identical to the generic columns): the same shapes.
+TEST(CudaRobotSpecificKernel, LeanKernelByTreeColumnsMatchesTheGenericOne) {
+  expect_builds_match_the_generic_kernel({{true, true, 128, true, true},
+                                          {true, true, 0, true, true},
+                                          {true, true, 32, true, true},
+                                          {true, true, 48, true, true}});
 }
 
 // The compact build with its full working set (block_lean: false).
