@@ -138,7 +138,8 @@ TEST(CudaPlugin, OptionsAreChecked) {
   for (const auto& options : {std::vector<std::pair<std::string, std::string>>{{"specialize", "false"}},
                               {{"specialize", "false"}, {"block_compact", "false"}},
                               {{"block_compact", "false"}},
-                              {{"block_lean", "false"}, {"specialize", "false"}}}) {
+                              {{"block_lean", "false"}, {"specialize", "false"}},
+                              {{"block_tree_columns", "true"}}}) {
     e.reset();
     create(api(), iiwa().desc(), options, &e);
     if (e) {
