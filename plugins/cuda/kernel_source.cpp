@@ -55,7 +55,7 @@ std::string hex_constant(unsigned long long value) {
 
 // The robot's tree as the constexpr functions TreeModelView reads (model_view.hpp), a struct of
 // the generated program's own; chains: whether M^-1 goes by the tree's chains, columns: whether its
-// columns then go by the tree's blocks (TreeConstants)
+// columns then go by the tree's blocks (TreeConstants; only with chains)
 constexpr const char* kTreeStruct = "rbdgrad_robot_tree";
 std::string tree_source(const Model& model, bool chains, bool columns) {
   auto list = [&](const std::vector<int>& values) {
@@ -65,7 +65,7 @@ std::string tree_source(const Model& model, bool chains, bool columns) {
   };
   return std::string("struct ") + kTreeStruct + " {\n" +
          "  static constexpr bool chains = " + (chains ? "true" : "false") + ";\n" +
-         "  static constexpr bool columns = " + (chains && columns ? "true" : "false") + ";\n" +
+         "  static constexpr bool columns = " + (columns ? "true" : "false") + ";\n" +
          "  static constexpr __host__ __device__ int parent(int i) {\n"
          "    constexpr int v[] = {" + list(model.parent) + "};\n    return v[i];\n  }\n" +
          "  static constexpr __host__ __device__ int subtree_end(int i) {\n"

@@ -10,9 +10,10 @@
 // and, where a branch starts, its parent's ancestors all constants; the lanes of a block read the
 // same joint's S, U and pivot at once (broadcasts). The operations are inverse_column's in its
 // order, so the columns are the same bits (block_tree_columns_test.cpp).
-// Not timed on a GPU yet: the kernels the plugin builds keep inverse_column (TreeConstants'
-// columns, the build's tree_columns, kernel_source.hpp). NVRTC: talos_reduced's lean build with it
-// spills 12 bytes (f64; 8 for f32 batches) at its 64 registers, where it spills none without.
+// Not timed on a GPU yet, so off by default: the plugin option block_tree_columns turns it on
+// (TreeConstants' columns, the build's tree_columns, kernel_source.hpp). NVRTC: talos_reduced's
+// lean build with it spills 12 bytes (f64; 8 for f32 batches) at its 64 registers, where it spills
+// none without; with the products' tiles of 5 rows (kTreeTileRows) neither spills.
 #pragma once
 
 #include "block_mass_inverse.hpp"
