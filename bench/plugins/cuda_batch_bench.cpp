@@ -100,7 +100,7 @@ struct Backend {
   std::mutex mutex;  // benchmark threads create their own instances
 
   // build: the options that take effect when the kernels are compiled (block_compact, block_lean,
-  // and the block shape, which sets the compact kernel's register cap): an instance of its own for
+  // block_tree_chains, block_tree_columns and the block shape, which sets the compact kernel's register cap): an instance of its own for
   // each
   rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0,
                                         const rbdgrad::cuda::KernelOptions& build = {}) {
@@ -109,6 +109,8 @@ struct Backend {
     std::string key = robot + "#" + std::to_string(copy);
     if (!build.block_compact) key += "#dense";
     if (build.block_lean) key += "#lean";
+    if (build.block_tree_chains) key += "#chains";
+    if (build.block_tree_columns) key += "#columns";
     // two appends: GCC 12 warns falsely (-Wrestrict) on "#" + std::to_string(...)
     key += '#';
     key += std::to_string(build.block_shape.threads_per_state);
@@ -121,6 +123,8 @@ struct Backend {
       rbdgrad::cuda::KernelOptions options;
       options.block_compact = build.block_compact;
       options.block_lean = build.block_lean;
+      options.block_tree_chains = build.block_tree_chains;
+      options.block_tree_columns = build.block_tree_columns;
       options.block_shape = build.block_shape;
       (void)slot->set_kernel_options(options);
       // as the plugin does by default: the block and warp kernels compiled for the robot (the
@@ -232,6 +236,13 @@ Kernel full(Kernel k) {
 Kernel warp_outputs(bool early) {
   Kernel k{early ? "early" : "late", {}};
   k.options.warp_early_outputs_min_bytes = early ? 0 : ~std::uint64_t{0};
+  return k;
+}
+// `k` with the lean kernel's M^-1 columns by the tree's blocks (plugin option block_tree_columns;
+// the default finds them by the chains alone)
+Kernel tree_columns(Kernel k) {
+  k.name += "-columns";
+  k.options.block_tree_columns = true;
   return k;
 }
 // the defaults with a small batch's inputs in the warp kernel's parameters, in the smallest block
@@ -410,9 +421,11 @@ const bool registered = [] {
         // and the dense block kernel, three states an SM (one block of 256 threads a state), the
         // compact one with its full working set, four, and the default (its lean working set,
         // eight states an SM at its automatic 128 threads a state) at 96 threads a state (eight,
-        // at 80 registers where 128 take 64), 192 (four, by its registers) and 256 (three)
+        // at 80 registers where 128 take 64), 192 (four, by its registers) and 256 (three), and
+        // the default with M^-1's columns by the tree's blocks
         for (const Kernel& k : {dense(pipeline(chunks)), full(pipeline(chunks)), wider(pipeline(chunks), 96),
-                                wider(pipeline(chunks), 192), wider(pipeline(chunks), 256)}) {
+                                wider(pipeline(chunks), 192), wider(pipeline(chunks), 256),
+                                tree_columns(pipeline(chunks))}) {
           add<float>("cuda_pipeline", robot, n, k);
           add<double>("cuda_pipeline", robot, n, k);
         }
