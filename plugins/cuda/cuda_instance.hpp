@@ -136,8 +136,8 @@ struct KernelOptions {
   bool block_tree_chains = true;
   // with the chains, M^-1's columns by the tree's blocks (device/block_tree_columns.hpp: the
   // column's ancestors and its block's segments as constants, the same bits as the generic
-  // columns). Off until a GPU times it (docs/benchmarks/cuda.md). Read by specialize(); ignored
-  // without block_tree_chains.
+  // columns). Off: at most 0.7% faster on an H100 (run 154, docs/benchmarks/cuda.md). Read by
+  // specialize(); ignored without block_tree_chains.
   bool block_tree_columns = false;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)

@@ -763,8 +763,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // The same products by the tree's blocks where the model type fixes the tree and M^-1 is
   // computed here (block_tree_products.hpp: a warp's lanes one block size's code, its offsets
   // constants): a warp for the entries between blocks, then the tiles of every block; qdd's rows.
-  // (This order, the finite flag once an item and tiles of 4 rows: ptxas spilled talos_reduced's
-  // kernels at 64 registers in the others tried.)
+  // (This order and the finite flag once an item: ptxas spilled talos_reduced's kernels at 64
+  // registers in the others tried.)
   constexpr bool kTreeProducts = kTreeFixed && kPacked;
   const bool by_tree = kTreeProducts && !minv_supplied;
   int tree_product_items = 0, tree_row_items = 0;

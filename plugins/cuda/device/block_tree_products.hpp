@@ -21,8 +21,10 @@
 namespace rbdgrad::cuda {
 
 // A tile is at most this many rows of a block: a thread's sums, and the rows that share each load
-// of d tau/d u's column (talos_reduced: the torso's 20 rows as five tiles, a leg's 6 as two).
-inline constexpr int kTreeTileRows = 4;
+// of d tau/d u's column (talos_reduced: the torso's 20 rows as four tiles, a leg's 6 as two of 3).
+// 5 since the forty-first session: 6.0% faster than 4 with M^-1 by the chains (run 154, H100;
+// docs/benchmarks/cuda.md), which freed the registers that made 5 spill before.
+inline constexpr int kTreeTileRows = 5;
 
 RBDGRAD_HD constexpr int whole_warps(int items) { return (items + 31) / 32 * 32; }
 // a block of b joints as ceil(b / kTreeTileRows) tiles of equal rows (the last may have fewer)
