@@ -279,9 +279,9 @@ Status CudaInstance::specialize(const std::string& cache_dir) {
   std::string parts;
   specialized_f64_for_f32_.reset();
   // f32 batches computed in f64 need a kernel of their own (f32 inputs and outputs)
-  std::vector<KernelScalars> wanted = {KernelScalars::kF64, KernelScalars::kF32};
-  if (f32_in_f64()) wanted.push_back(KernelScalars::kF64ForF32);
-  for (const KernelScalars scalars : wanted) {
+  std::vector<KernelScalars> kinds = {KernelScalars::kF64, KernelScalars::kF32};
+  if (f32_in_f64()) kinds.push_back(KernelScalars::kF64ForF32);
+  for (const KernelScalars scalars : kinds) {
     std::unique_ptr<SpecializedBlockKernel>& k = scalars == KernelScalars::kF32   ? specialized_f32_
                                                  : scalars == KernelScalars::kF64 ? specialized_f64_
                                                                                   : specialized_f64_for_f32_;
