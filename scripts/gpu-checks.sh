@@ -35,7 +35,7 @@ out=$(mktemp -d)
 mkdir -p "$result"
 export LD_LIBRARY_PATH="$here/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 sanitize=${1:-'*LeanKernel*:*CompactKernel*'}
-bench=${2-'cuda_pipeline/1chunks(-dense|-full|-96|-192|-256|-columns)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
+bench=${2-'cuda_pipeline/1chunks(-dense|-full|-96|-192|-256|-walkcolumns)?/pinned/f(32|64)/talos_reduced/N65536|cuda_compact/|cuda_waves/'}
 failed=0
 step() {  # step NAME COMMAND...: runs it, its output in $out/NAME.log, its last lines here
   local name=$1 status=0
@@ -135,9 +135,10 @@ if [[ $steps == *" bench "* && -n "$bench" ]]; then
     --benchmark_out="$out/bench.json" --benchmark_out_format=json
 fi
 # earlier commits' benchmark (gpu-bundle.sh REV): the default kernel alone at 65536 talos_reduced
-# states (and with M^-1's columns by the tree, where the commit has that case), this bundle's again
-# after each, so that a drift of the machine shows
-kernel_alone='cuda_pipeline/1chunks(-columns)?/pinned/f(32|64)/talos_reduced/N65536/'
+# states (and with M^-1's columns the other way, where the commit has that case: -columns by the
+# tree's blocks before they were the default, -walkcolumns a thread a column since), this bundle's
+# again after each, so that a drift of the machine shows
+kernel_alone='cuda_pipeline/1chunks(-columns|-walkcolumns)?/pinned/f(32|64)/talos_reduced/N65536/'
 # the kernel's own time (the kernel_us counter, CUDA events) of each median in a benchmark log:
 # the real_time column is end to end, mostly copies
 kernel_medians() {

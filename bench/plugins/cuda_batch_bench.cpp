@@ -238,11 +238,11 @@ Kernel warp_outputs(bool early) {
   k.options.warp_early_outputs_min_bytes = early ? 0 : ~std::uint64_t{0};
   return k;
 }
-// `k` with the lean kernel's M^-1 columns by the tree's blocks (plugin option block_tree_columns;
-// the default finds them by the chains alone)
-Kernel tree_columns(Kernel k) {
-  k.name += "-columns";
-  k.options.block_tree_columns = true;
+// `k` with the lean kernel's M^-1 columns a thread a column walking the tree (plugin option
+// block_tree_columns: false; the default takes them by the tree's blocks)
+Kernel walked_columns(Kernel k) {
+  k.name += "-walkcolumns";
+  k.options.block_tree_columns = false;
   return k;
 }
 // the defaults with a small batch's inputs in the warp kernel's parameters, in the smallest block
@@ -422,10 +422,10 @@ const bool registered = [] {
         // compact one with its full working set, four, and the default (its lean working set,
         // eight states an SM at its automatic 128 threads a state) at 96 threads a state (eight,
         // at 80 registers where 128 take 64), 192 (four, by its registers) and 256 (three), and
-        // the default with M^-1's columns by the tree's blocks
+        // the default with M^-1's columns a thread a column, walking the tree
         for (const Kernel& k : {dense(pipeline(chunks)), full(pipeline(chunks)), wider(pipeline(chunks), 96),
                                 wider(pipeline(chunks), 192), wider(pipeline(chunks), 256),
-                                tree_columns(pipeline(chunks))}) {
+                                walked_columns(pipeline(chunks))}) {
           add<float>("cuda_pipeline", robot, n, k);
           add<double>("cuda_pipeline", robot, n, k);
         }

@@ -136,9 +136,10 @@ struct KernelOptions {
   bool block_tree_chains = true;
   // with the chains, M^-1's columns by the tree's blocks (device/block_tree_columns.hpp: the
   // column's ancestors and its block's segments as constants, the same bits as the generic
-  // columns). Off: at most 0.7% faster on an H100 (run 154, docs/benchmarks/cuda.md). Read by
-  // specialize(); ignored without block_tree_chains.
-  bool block_tree_columns = false;
+  // columns; talos_reduced's kernel at 65536 states 0.2-0.3% faster f64, 0.6-0.7% f32 batches, on
+  // an H100, runs 154 and 158, docs/benchmarks/cuda.md). Read by specialize(); ignored without
+  // block_tree_chains.
+  bool block_tree_columns = true;
   // warp-kernel batches with at least this many bytes of outputs write the first ones early
   // (warp_launch.hpp)
   std::uint64_t warp_early_outputs_min_bytes = kDefaultWarpEarlyOutputsMinBytes;

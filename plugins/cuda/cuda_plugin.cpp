@@ -90,7 +90,7 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     // with its lean working set (default true where the compact kernel is built; needs
     // block_compact). block_tree_chains: the lean kernel's M^-1 by the tree's chains (default true
     // where the lean kernel is built; needs block_lean). block_tree_columns: with the chains,
-    // M^-1's columns by the tree's blocks (default false; needs block_tree_chains).
+    // M^-1's columns by the tree's blocks (default true with the chains; needs block_tree_chains).
     if (Status s = check_options(options, {"device", "workspace_mib", "block_max_states", "threads_per_state",
                                            "states_per_block", "mapped_io_max_kib", "f32_thread_kernel_min_states",
                                            "mapped_pinned_max_kib", "chunk_min_states", "max_chunks", "f32_compute",
@@ -122,9 +122,10 @@ rbdgrad_error* create_instance(const rbdgrad_model_desc* desc, const rbdgrad_opt
     if (Status s = option_bool(options, "block_tree_chains", block_tree_chains); !s) return s;
     if (block_tree_chains && !block_lean && find_option(options, "block_tree_chains") != nullptr)
       return invalid_argument("option 'block_tree_chains' needs 'block_lean' (the chains are the lean kernel's)");
-    bool block_tree_columns = false;
+    // on by default with the chains; asked for explicitly, it needs them
+    bool block_tree_columns = block_tree_chains;
     if (Status s = option_bool(options, "block_tree_columns", block_tree_columns); !s) return s;
-    if (block_tree_columns && !block_tree_chains)
+    if (block_tree_columns && !block_tree_chains && find_option(options, "block_tree_columns") != nullptr)
       return invalid_argument(
           "option 'block_tree_columns' needs 'block_tree_chains' (the columns by the tree are the chains' pass)");
     const char* cache_option = find_option(options, "kernel_cache_dir");

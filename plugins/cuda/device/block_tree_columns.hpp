@@ -10,12 +10,12 @@
 // and, where a branch starts, its parent's ancestors all constants; the lanes of a block read the
 // same joint's S, U and pivot at once (broadcasts). The operations are inverse_column's in its
 // order, so the columns are the same bits (block_tree_columns_test.cpp).
-// Off by default, as it gained little: talos_reduced's kernel at 65536 states 0.3% (f64) and 0.7%
-// (f32 batches) faster with it over the products' tiles of 5 rows, and 0.5% slower / 1.0% faster
-// over tiles of 4 (run 154, H100, docs/benchmarks/cuda.md); the plugin option block_tree_columns
-// turns it on (TreeConstants' columns, the build's tree_columns, kernel_source.hpp). NVRTC:
-// talos_reduced's lean build with it and tiles of 4 spilled 12 bytes (f64; 8 for f32 batches) at
-// its 64 registers; with the tiles of 5 (kTreeTileRows) it spills none.
+// On by default with the chains (the plugin option block_tree_columns; TreeConstants' columns, the
+// build's tree_columns, kernel_source.hpp): talos_reduced's kernel at 65536 states 0.2-0.3% (f64)
+// and 0.6-0.7% (f32 batches) faster with it over the products' tiles of 5 rows (runs 154 and 158,
+// H100, docs/benchmarks/cuda.md). NVRTC: talos_reduced's lean build with it and tiles of 4
+// spilled 12 bytes (f64; 8 for f32 batches) at its 64 registers; with the tiles of 5
+// (kTreeTileRows) it spills none.
 #pragma once
 
 #include "block_mass_inverse.hpp"

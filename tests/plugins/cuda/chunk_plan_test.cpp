@@ -83,8 +83,8 @@ TEST(CudaChunkPlan, TheLeanCompactKernelIsTheDefault) {
   EXPECT_NE(s.message().find("block_lean without block_compact"), std::string::npos) << s.message();
   options.block_lean = false;
   EXPECT_TRUE(options.block_tree_chains);
-  // M^-1's columns by the tree's blocks: off until a GPU times them
-  EXPECT_FALSE(options.block_tree_columns);
+  // M^-1's columns by the tree's blocks: on, with the chains
+  EXPECT_TRUE(options.block_tree_columns);
   EXPECT_TRUE(check_kernel_options(options));
 }
 

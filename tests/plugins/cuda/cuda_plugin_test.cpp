@@ -139,7 +139,9 @@ TEST(CudaPlugin, OptionsAreChecked) {
                               {{"specialize", "false"}, {"block_compact", "false"}},
                               {{"block_compact", "false"}},
                               {{"block_lean", "false"}, {"specialize", "false"}},
-                              {{"block_tree_columns", "true"}}}) {
+                              {{"block_tree_columns", "true"}},
+                              {{"block_tree_chains", "false"}},
+                              {{"block_lean", "false"}}}) {
     e.reset();
     create(api(), iiwa().desc(), options, &e);
     if (e) {
