@@ -22,17 +22,27 @@ namespace rbdgrad::cuda {
 
 // A tile is at most this many rows of a block: a thread's sums, and the rows that share each load
 // of d tau/d u's column (talos_reduced: the torso's 20 rows as four tiles, a leg's 6 as two of 3).
-// 5 since the forty-first session: 6.0% faster than 4 with M^-1 by the chains (run 154, H100;
-// docs/benchmarks/cuda.md), which freed the registers that made 5 spill before.
+// 5 where M^-1 goes by the tree's chains: 6.0% faster than 4 there (run 154, H100;
+// docs/benchmarks/cuda.md), the chains having freed the registers that 5 needs. 4 in the build
+// without the chains, which spills 4 bytes with 5 at talos_reduced's 64 registers (NVRTC,
+// KernelSource tests).
 inline constexpr int kTreeTileRows = 5;
+inline constexpr int kTreeTileRowsWithoutChains = 4;
+template <class Model>
+inline constexpr int kTreeTileRowsOf = TreeConstants<Model>::chains ? kTreeTileRows : kTreeTileRowsWithoutChains;
 
 RBDGRAD_HD constexpr int whole_warps(int items) { return (items + 31) / 32 * 32; }
-// a block of b joints as ceil(b / kTreeTileRows) tiles of equal rows (the last may have fewer)
+// a block of b joints as ceil(b / R) tiles of equal rows (the last may have fewer), R the most
+// rows a tile
+template <int R = kTreeTileRows>
 RBDGRAD_HD constexpr int tree_tile_rows(int b) {
-  const int tiles = (b + kTreeTileRows - 1) / kTreeTileRows;
+  const int tiles = (b + R - 1) / R;
   return (b + tiles - 1) / tiles;
 }
-RBDGRAD_HD constexpr int tree_tiles(int b) { return (b + tree_tile_rows(b) - 1) / tree_tile_rows(b); }
+template <int R = kTreeTileRows>
+RBDGRAD_HD constexpr int tree_tiles(int b) {
+  return (b + tree_tile_rows<R>(b) - 1) / tree_tile_rows<R>(b);
+}
 
 // The roots' blocks of the fixed tree: root r's block is [r, subtree_end(r)), packed in the
 // matrices after the blocks of the roots before it (flat_model.hpp). On the device every call
@@ -84,7 +94,7 @@ struct TreeBlocks {
 
 // The items of a pass of `per_row ? rows : tiles` of the blocks: for each block size (in the
 // order of the first root of that size), per block b rows, or tree_tiles(b) tiles of b columns
-// each; each size's items rounded up to whole warps.
+// each (tiles of kTreeTileRowsOf<Model> rows at most); each size's items rounded up to whole warps.
 template <class Model>
 RBDGRAD_HD int tree_block_items(const Model& m, bool per_row) {
   using Blocks = TreeBlocks<Model>;
@@ -93,7 +103,7 @@ RBDGRAD_HD int tree_block_items(const Model& m, bool per_row) {
   for (int root = 0; root < Blocks::n; ++root) {
     if (!Blocks::is_root(m, root) || !Blocks::leads(m, root)) continue;
     const int b = Blocks::size(m, root);
-    items += whole_warps(Blocks::count(m, b) * (per_row ? b : b * tree_tiles(b)));
+    items += whole_warps(Blocks::count(m, b) * (per_row ? b : b * tree_tiles<kTreeTileRowsOf<Model>>(b)));
   }
   return items;
 }
@@ -109,7 +119,7 @@ RBDGRAD_HD void tree_block_item(const Model& m, int t, bool per_row, F&& f) {
   for (int root = 0; root < Blocks::n; ++root) {
     if (!Blocks::is_root(m, root) || !Blocks::leads(m, root)) continue;
     const int b = Blocks::size(m, root), blocks = Blocks::count(m, b);
-    const int per_block = per_row ? b : b * tree_tiles(b);
+    const int per_block = per_row ? b : b * tree_tiles<kTreeTileRowsOf<Model>>(b);
     if (t >= base && t < base + blocks * per_block) {
       const int local = t - base, k = blocks > 1 ? local / per_block : 0, x = local - k * per_block;
       int first, packed;
@@ -127,15 +137,16 @@ RBDGRAD_HD void tree_block_item(const Model& m, int t, bool per_row, F&& f) {
 
 // sink(i, j, sum over r of a(i, r) d(r, j)) for the rows i of `tile` within the block (a and d
 // b x b, row-major): the tile's rows share each load of d's column j, their sums independent
-// chains; a's rows two entries a load where `pairs` (a 2-scalar aligned, b even).
-template <class S, class Sink>
+// chains; a's rows two entries a load where `pairs` (a 2-scalar aligned, b even). Tiles of R rows
+// at most, as tree_block_item's (kTreeTileRowsOf<Model>).
+template <int R = kTreeTileRows, class S, class Sink>
 RBDGRAD_HD void tree_tile_product(const S* a, const S* d, int b, int tile, int col, bool pairs, Sink&& sink) {
-  const int rows_per_tile = tree_tile_rows(b), row0 = tile * rows_per_tile;
+  const int rows_per_tile = tree_tile_rows<R>(b), row0 = tile * rows_per_tile;
   const bool whole = b % rows_per_tile == 0;  // every tile full: no row to clamp
-  const S* rows[kTreeTileRows];
-  S s[kTreeTileRows];
+  const S* rows[R];
+  S s[R];
   RBDGRAD_TREE_UNROLL
-  for (int k = 0; k < kTreeTileRows; ++k) {
+  for (int k = 0; k < R; ++k) {
     const int i = row0 + k;
     // a row past the block (the last tile's) reads the block's last again, and is not written
     rows[k] = a + (whole || i < b ? i : b - 1) * b;
@@ -147,7 +158,7 @@ RBDGRAD_HD void tree_tile_product(const S* a, const S* d, int b, int tile, int c
     for (int r = 0; r < b; r += 2) {
       const S x0 = dc[r * b], x1 = dc[(r + 1) * b];
       RBDGRAD_TREE_UNROLL
-      for (int k = 0; k < kTreeTileRows; ++k) {
+      for (int k = 0; k < R; ++k) {
         if (k >= rows_per_tile) break;
         S a0, a1;
         load_pair(rows[k] + r, a0, a1);
@@ -160,14 +171,14 @@ RBDGRAD_HD void tree_tile_product(const S* a, const S* d, int b, int tile, int c
     for (int r = 0; r < b; ++r) {
       const S x = dc[r * b];
       RBDGRAD_TREE_UNROLL
-      for (int k = 0; k < kTreeTileRows; ++k) {
+      for (int k = 0; k < R; ++k) {
         if (k >= rows_per_tile) break;
         s[k] += rows[k][r] * x;
       }
     }
   }
   RBDGRAD_TREE_UNROLL
-  for (int k = 0; k < kTreeTileRows; ++k)
+  for (int k = 0; k < R; ++k)
     if (k < rows_per_tile && (whole || row0 + k < b)) sink(row0 + k, col, s[k]);
 }
 

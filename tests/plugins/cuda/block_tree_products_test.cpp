@@ -7,6 +7,7 @@
 #include <map>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -93,7 +94,8 @@ void check_tree(const std::string& name, const std::vector<int>& parents) {
         cuda::tree_block_item(m, u, false, [&](int, int other, int, int, int) {
           EXPECT_EQ(other, b) << name << ": items " << t << " and " << u << " share a warp";
         });
-      cuda::tree_tile_product(a.data() + packed, d.data() + packed, b, tile, col, packed % 2 == 0 && b % 2 == 0,
+      cuda::tree_tile_product<cuda::kTreeTileRowsOf<ArrayTree<NV>>>(
+                              a.data() + packed, d.data() + packed, b, tile, col, packed % 2 == 0 && b % 2 == 0,
                               [&](int i, int j, double s) {
                                 double expected = 0.0;
                                 for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
@@ -136,6 +138,41 @@ TEST(TreeProducts, CoverEveryEntryOnceWithThePlainSums) {
   check_tree<20>("chains of 3, 7, 3, 7", chains({3, 7, 3, 7}));
   check_tree<40>("two chains of 20 (more joints than a warp's lanes)", chains({20, 20}));
   check_tree<11>("a chain of 11 (tiles of 4, 4 and 3 rows)", chains({11}));
+}
+
+// Tiles of at most 4 rows (the build without the chains' tiles, kTreeTileRowsWithoutChains) and of
+// 5 (with them): talos_reduced's torso block of 20 rows as five tiles and four, every entry of a
+// block once, the sums in r's order, with and without pairs.
+TEST(TreeProducts, TilesOfFourAndFiveRowsCoverEveryEntryOnce) {
+  static_assert(cuda::tree_tiles<4>(20) == 5 && cuda::tree_tiles<5>(20) == 4);
+  static_assert(cuda::tree_tile_rows<4>(6) == 3 && cuda::tree_tile_rows<5>(6) == 3);
+  static_assert(cuda::tree_tile_rows<4>(11) == 4 && cuda::tree_tile_rows<5>(11) == 4);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  for (const int b : {2, 3, 6, 8, 11, 20}) {
+    std::vector<double> a(static_cast<std::size_t>(b * b)), d(a.size());
+    for (double& v : a) v = value(rng);
+    for (double& v : d) v = value(rng);
+    const auto check = [&](auto rows, bool pairs) {
+      constexpr int R = decltype(rows)::value;
+      std::map<std::pair<int, int>, int> written;
+      for (int tile = 0; tile < cuda::tree_tiles<R>(b); ++tile)
+        for (int col = 0; col < b; ++col)
+          cuda::tree_tile_product<R>(a.data(), d.data(), b, tile, col, pairs, [&](int i, int j, double s) {
+            double expected = 0.0;
+            for (int r = 0; r < b; ++r) expected += a[i * b + r] * d[r * b + j];
+            EXPECT_EQ(s, expected) << "b " << b << ", tiles of " << R << ": (" << i << ", " << j << ")";
+            ++written[{i, j}];
+          });
+      for (int i = 0; i < b; ++i)
+        for (int j = 0; j < b; ++j)
+          EXPECT_EQ((written[{i, j}]), 1) << "b " << b << ", tiles of " << R << ": (" << i << ", " << j << ")";
+    };
+    for (const bool pairs : {false, b % 2 == 0}) {
+      check(std::integral_constant<int, cuda::kTreeTileRowsWithoutChains>{}, pairs);
+      check(std::integral_constant<int, cuda::kTreeTileRows>{}, pairs);
+    }
+  }
 }
 
 // The embedded robots' trees, and where flat_model.hpp packs their blocks

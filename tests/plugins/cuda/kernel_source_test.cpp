@@ -302,7 +302,9 @@ TEST(KernelSource, CompactTalosKernelHoldsItsRegisterCapWithoutSpills) {
 // The lean working set (block_workspace.hpp) of the compact kernel for talos_reduced: at the cap
 // that eight blocks of 128 threads an SM give it, 64 (RegisterCap's tests; CUDA 13.0: 80
 // registers uncapped; 72 with seven blocks before I, v and a left the working set after the
-// subtree sums; with the packed matrices' size known only at run time it spilled 8 bytes at 72).
+// subtree sums; with the packed matrices' size known only at run time it spilled 8 bytes at 72;
+// the products' tiles of 5 rows spill 4 bytes here, so this build keeps tiles of 4:
+// kTreeTileRowsOf, block_tree_products.hpp).
 TEST(KernelSource, LeanTalosKernelHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
   expect_talos_build_holds_its_cap({true, 64, true}, "lean", "lean working set");
