@@ -100,8 +100,8 @@ struct Backend {
   std::mutex mutex;  // benchmark threads create their own instances
 
   // build: the options that take effect when the kernels are compiled (block_compact, block_lean,
-  // block_tree_chains, block_tree_columns and the block shape, which sets the compact kernel's register cap): an instance of its own for
-  // each
+  // block_tree_chains, block_tree_columns and the block shape, which sets the compact kernel's
+  // register cap): an instance of its own for each
   rbdgrad::cuda::CudaInstance* instance(const std::string& robot, int copy = 0,
                                         const rbdgrad::cuda::KernelOptions& build = {}) {
     std::lock_guard<std::mutex> lock(mutex);

@@ -783,11 +783,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         t -= zeros;
         bool finite = true;
         tree_block_item(m, t, false, [&](int first, int size, int packed, int tile, int col) {
-          tree_tile_product<kTreeTileRowsOf<Model>>(inverse + packed, dtau + packed, size, tile, col, tree_pairs(size, packed), [&](int i, int j, S s) {
-            const IO y = static_cast<IO>(-s);
-            finite &= is_finite(y);
-            if (out) out[(first + i) * n + first + j] = y;
-          });
+          const bool pairs = tree_pairs(size, packed);
+          tree_tile_product<kTreeTileRowsOf<Model>>(inverse + packed, dtau + packed, size, tile, col, pairs,
+                                                    [&](int i, int j, S s) {
+                                                      const IO y = static_cast<IO>(-s);
+                                                      finite &= is_finite(y);
+                                                      if (out) out[(first + i) * n + first + j] = y;
+                                                    });
         });
         if (!finite) *w.not_finite = 1;
       } else {
