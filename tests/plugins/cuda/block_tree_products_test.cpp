@@ -94,14 +94,14 @@ void check_tree(const std::string& name, const std::vector<int>& parents) {
         cuda::tree_block_item(m, u, false, [&](int, int other, int, int, int) {
           EXPECT_EQ(other, b) << name << ": items " << t << " and " << u << " share a warp";
         });
+      const bool pairs = packed % 2 == 0 && b % 2 == 0;
       cuda::tree_tile_product<cuda::kTreeTileRowsOf<ArrayTree<NV>>>(
-                              a.data() + packed, d.data() + packed, b, tile, col, packed % 2 == 0 && b % 2 == 0,
-                              [&](int i, int j, double s) {
-                                double expected = 0.0;
-                                for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
-                                EXPECT_EQ(s, expected) << name << " entry (" << first + i << ", " << first + j << ")";
-                                ++written[{first + i, first + j}];
-                              });
+          a.data() + packed, d.data() + packed, b, tile, col, pairs, [&](int i, int j, double s) {
+            double expected = 0.0;
+            for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
+            EXPECT_EQ(s, expected) << name << " entry (" << first + i << ", " << first + j << ")";
+            ++written[{first + i, first + j}];
+          });
     });
   }
   // qdd's rows: each row once
@@ -168,7 +168,8 @@ TEST(TreeProducts, TilesOfFourAndFiveRowsCoverEveryEntryOnce) {
         for (int j = 0; j < b; ++j)
           EXPECT_EQ((written[{i, j}]), 1) << "b " << b << ", tiles of " << R << ": (" << i << ", " << j << ")";
     };
-    for (const bool pairs : {false, b % 2 == 0}) {
+    for (const bool pairs : {false, true}) {
+      if (pairs && b % 2 != 0) continue;  // pairs need an even block
       check(std::integral_constant<int, cuda::kTreeTileRowsWithoutChains>{}, pairs);
       check(std::integral_constant<int, cuda::kTreeTileRows>{}, pairs);
     }
