@@ -33,13 +33,14 @@ inline constexpr int kTreeTileRowsOf = TreeConstants<Model>::chains ? kTreeTileR
 
 RBDGRAD_HD constexpr int whole_warps(int items) { return (items + 31) / 32 * 32; }
 // a block of b joints as ceil(b / R) tiles of equal rows (the last may have fewer), R the most
-// rows a tile
-template <int R = kTreeTileRows>
+// rows a tile (no default: the items' tiling and the product must take the same R,
+// kTreeTileRowsOf<Model>)
+template <int R>
 RBDGRAD_HD constexpr int tree_tile_rows(int b) {
   const int tiles = (b + R - 1) / R;
   return (b + tiles - 1) / tiles;
 }
-template <int R = kTreeTileRows>
+template <int R>
 RBDGRAD_HD constexpr int tree_tiles(int b) {
   return (b + tree_tile_rows<R>(b) - 1) / tree_tile_rows<R>(b);
 }
@@ -139,7 +140,7 @@ RBDGRAD_HD void tree_block_item(const Model& m, int t, bool per_row, F&& f) {
 // b x b, row-major): the tile's rows share each load of d's column j, their sums independent
 // chains; a's rows two entries a load where `pairs` (a 2-scalar aligned, b even). Tiles of R rows
 // at most, as tree_block_item's (kTreeTileRowsOf<Model>).
-template <int R = kTreeTileRows, class S, class Sink>
+template <int R, class S, class Sink>
 RBDGRAD_HD void tree_tile_product(const S* a, const S* d, int b, int tile, int col, bool pairs, Sink&& sink) {
   const int rows_per_tile = tree_tile_rows<R>(b), row0 = tile * rows_per_tile;
   const bool whole = b % rows_per_tile == 0;  // every tile full: no row to clamp

@@ -58,6 +58,20 @@ std::vector<int> chains(const std::vector<int>& lengths) {
   return parent;
 }
 
+// Tile `tile`, column `col` of a block of b joints (a and d packed at `packed`, its first joint
+// `first`) in tiles of at most R rows: each entry it writes the plain sum in r's order, counted in
+// `written` by its joints
+template <int R>
+void check_tile(const std::string& name, const std::vector<double>& a, const std::vector<double>& d, int packed,
+                int first, int b, int tile, int col, bool pairs, std::map<std::pair<int, int>, int>& written) {
+  cuda::tree_tile_product<R>(a.data() + packed, d.data() + packed, b, tile, col, pairs, [&](int i, int j, double s) {
+    double expected = 0.0;
+    for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
+    EXPECT_EQ(s, expected) << name << " entry (" << first + i << ", " << first + j << ")";
+    ++written[{first + i, first + j}];
+  });
+}
+
 template <int NV>
 void check_tree(const std::string& name, const std::vector<int>& parents) {
   ASSERT_EQ(static_cast<int>(parents.size()), NV) << name;
@@ -94,14 +108,8 @@ void check_tree(const std::string& name, const std::vector<int>& parents) {
         cuda::tree_block_item(m, u, false, [&](int, int other, int, int, int) {
           EXPECT_EQ(other, b) << name << ": items " << t << " and " << u << " share a warp";
         });
-      const bool pairs = packed % 2 == 0 && b % 2 == 0;
-      cuda::tree_tile_product<cuda::kTreeTileRowsOf<ArrayTree<NV>>>(
-          a.data() + packed, d.data() + packed, b, tile, col, pairs, [&](int i, int j, double s) {
-            double expected = 0.0;
-            for (int r = 0; r < b; ++r) expected += a[packed + i * b + r] * d[packed + r * b + j];
-            EXPECT_EQ(s, expected) << name << " entry (" << first + i << ", " << first + j << ")";
-            ++written[{first + i, first + j}];
-          });
+      check_tile<cuda::kTreeTileRowsOf<ArrayTree<NV>>>(name, a, d, packed, first, b, tile, col,
+                                                      packed % 2 == 0 && b % 2 == 0, written);
     });
   }
   // qdd's rows: each row once
@@ -155,18 +163,12 @@ TEST(TreeProducts, TilesOfFourAndFiveRowsCoverEveryEntryOnce) {
     for (double& v : d) v = value(rng);
     const auto check = [&](auto rows, bool pairs) {
       constexpr int R = decltype(rows)::value;
+      const std::string name = "b " + std::to_string(b) + ", tiles of " + std::to_string(R);
       std::map<std::pair<int, int>, int> written;
       for (int tile = 0; tile < cuda::tree_tiles<R>(b); ++tile)
-        for (int col = 0; col < b; ++col)
-          cuda::tree_tile_product<R>(a.data(), d.data(), b, tile, col, pairs, [&](int i, int j, double s) {
-            double expected = 0.0;
-            for (int r = 0; r < b; ++r) expected += a[i * b + r] * d[r * b + j];
-            EXPECT_EQ(s, expected) << "b " << b << ", tiles of " << R << ": (" << i << ", " << j << ")";
-            ++written[{i, j}];
-          });
+        for (int col = 0; col < b; ++col) check_tile<R>(name, a, d, 0, 0, b, tile, col, pairs, written);
       for (int i = 0; i < b; ++i)
-        for (int j = 0; j < b; ++j)
-          EXPECT_EQ((written[{i, j}]), 1) << "b " << b << ", tiles of " << R << ": (" << i << ", " << j << ")";
+        for (int j = 0; j < b; ++j) EXPECT_EQ((written[{i, j}]), 1) << name << ": (" << i << ", " << j << ")";
     };
     for (const bool pairs : {false, true}) {
       if (pairs && b % 2 != 0) continue;  // pairs need an even block
