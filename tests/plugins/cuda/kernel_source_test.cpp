@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +16,7 @@
 #include "../../support/test_models.hpp"
 #include "kernel_cache.hpp"
 #include "kernel_source.hpp"
+#include "ptxas_report.hpp"
 #include "specialized_kernel.hpp"
 #include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
@@ -201,28 +201,6 @@ TEST(KernelSource, EveryRobotCompilesInBothPrecisions) {
   }
 }
 
-// ptxas's report (--ptxas-options=--verbose, in NVRTC's log) of a compiled kernel: -1 where absent
-struct PtxasReport {
-  int registers = -1, spill_stores = -1, spill_loads = -1;
-};
-PtxasReport ptxas_report(const std::string& log) {
-  PtxasReport r;
-  const auto number_before = [&](const std::string& what) {
-    const std::size_t at = log.find(what);
-    if (at == std::string::npos) return -1;
-    std::size_t begin = at;
-    while (begin > 0 && log[begin - 1] == ' ') --begin;
-    std::size_t digits = begin;
-    while (digits > 0 && std::isdigit(static_cast<unsigned char>(log[digits - 1]))) --digits;
-    return digits < begin ? std::stoi(log.substr(digits, begin - digits)) : -1;
-  };
-  r.spill_stores = number_before("bytes spill stores");
-  r.spill_loads = number_before("bytes spill loads");
-  const std::size_t used = log.find("Used ");
-  if (used != std::string::npos) r.registers = std::stoi(log.substr(used + 5));
-  return r;
-}
-
 // `model`'s `scalars` build of `build` compiled with NVRTC holds its register cap (if any) without
 // spilling, by ptxas's own report
 void expect_build_holds_its_cap(const Model& model, cuda::KernelScalars scalars, const cuda::BlockBuild& build,
@@ -235,7 +213,7 @@ void expect_build_holds_its_cap(const Model& model, cuda::KernelScalars scalars,
   cuda::NvrtcOutput out;
   const Status s = cuda::nvrtc_compile(p, out);
   ASSERT_TRUE(s.is_ok()) << label << ": " << s.message();
-  const PtxasReport r = ptxas_report(out.log);
+  const cuda::PtxasFunction r = cuda::ptxas_entry(out.log);
   std::printf("%s: cap %d, %d registers, %d bytes spill stores, %d bytes spill loads\n", label.c_str(),
               build.register_cap, r.registers, r.spill_stores, r.spill_loads);
   EXPECT_GT(r.registers, 0) << label << "\n" << out.log;
