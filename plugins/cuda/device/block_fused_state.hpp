@@ -179,6 +179,16 @@ RBDGRAD_HD S skew_at(const S* x, int row, int col) {
   const S value = x[3 - row - col];
   return (col - row + 3) % 3 == 1 ? -value : value;
 }
+// the same for a 3-vector a thread holds, by selects: indexed at run time, ptxas puts the array
+// in local memory (talos_reduced's inertia pass: 48 bytes of its kernel's stack frame, stored and
+// loaded through L1 on every item)
+template <class S>
+RBDGRAD_HD S skew_held(const S (&x)[3], int row, int col) {
+  if (row == col) return S(0);
+  const int at = 3 - row - col;
+  const S value = at == 0 ? x[0] : at == 1 ? x[1] : x[2];
+  return (col - row + 3) % 3 == 1 ? -value : value;
+}
 // the gravity acceleration [0; -g], component c. By selects, not m.gravity[c - 3]: an index known
 // only at run time puts the whole model view in local memory (ptxas: a 272-byte stack frame for
 // talos_reduced's f64 kernel, 128 without)
@@ -452,12 +462,13 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
       S value;
       if (local < 3) {
-        value = mc[local];
+        value = local == 0 ? mc[0] : local == 1 ? mc[1] : mc[2];  // (selects: as skew_held)
       } else {
         const int r = local < 6 ? 0 : local < 8 ? 1 : 2, k = local < 6 ? local - 3 : local < 8 ? local - 5 : 2;
-        using block::skew_at;
-        value = Icw[9 * i + 3 * r + k] - (skew_at(mc, r, 0) * skew_at(c, 0, k) + skew_at(mc, r, 1) * skew_at(c, 1, k) +
-                                          skew_at(mc, r, 2) * skew_at(c, 2, k));
+        using block::skew_held;
+        value = Icw[9 * i + 3 * r + k] - (skew_held(mc, r, 0) * skew_held(c, 0, k) +
+                                          skew_held(mc, r, 1) * skew_held(c, 1, k) +
+                                          skew_held(mc, r, 2) * skew_held(c, 2, k));
       }
       w.I[kInertiaParameterStride * i + local] = value;
       return;
@@ -470,14 +481,14 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
     S value;
     if (r < 3 && k < 3) {
-      using block::skew_at;
-      const S mcxcx = skew_at(mc, r, 0) * skew_at(c, 0, k) + skew_at(mc, r, 1) * skew_at(c, 1, k) +
-                      skew_at(mc, r, 2) * skew_at(c, 2, k);
+      using block::skew_held;
+      const S mcxcx = skew_held(mc, r, 0) * skew_held(c, 0, k) + skew_held(mc, r, 1) * skew_held(c, 1, k) +
+                      skew_held(mc, r, 2) * skew_held(c, 2, k);
       value = Icw[9 * i + 3 * r + k] - mcxcx;
     } else if (r < 3) {
-      value = block::skew_at(mc, r, k - 3);
+      value = block::skew_held(mc, r, k - 3);
     } else if (k < 3) {
-      value = -block::skew_at(mc, r - 3, k);
+      value = -block::skew_held(mc, r - 3, k);
     } else {
       value = r == k ? mass : S(0);
     }
