@@ -1,12 +1,15 @@
-// Compiles an embedded robot's block kernel with NVRTC, as the CUDA plugin does at model load, and
-// prints ptxas's report on it: registers, stack frame, spills, per function. No GPU needed.
+// Compiles an embedded robot's block kernel (or its warp kernel's entry points) with NVRTC, as the
+// CUDA plugin does at model load, and prints ptxas's report on it: registers, stack frame, spills,
+// per function. No GPU needed.
 // With --headers DIR the device headers are read from DIR (plugins/cuda/device in a source tree)
 // in place of those built in, so that an edit to them is checked in one compilation (about 20 s
 // for talos_reduced) without rebuilding anything; --cubin FILE writes the code for a disassembler
 // (nvdisasm -g on the GPU machine shows where a spill is).
 //
-// Usage: cuda_kernel_registers [--robot NAME] [--scalars f64|f64-for-f32|f32|both]
+// Usage: cuda_kernel_registers [--robot NAME] [--kernel block|warp] [--scalars f64|f64-for-f32|f32|both]
 //          [--build compact|lean|chains|columns] [--cap N] [--headers DIR] [--cubin FILE]
+// (--kernel warp: the warp kernel's entries for f64 and f32 batches, nv <= 16; --build and --cap
+// are the block kernel's)
 // Defaults: talos_reduced; f64 and f64 for f32 (both); the plugin's default build for it
 // (columns: the lean working set, M^-1 by the tree's chains and its columns by the tree's blocks);
 // the register cap the plugin gives that build on an H100 or H200 (64 for talos_reduced).
@@ -25,6 +28,7 @@
 #include "ptxas_report.hpp"
 #include "register_cap.hpp"
 #include "specialized_kernel.hpp"
+#include "warp_launch.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
 
@@ -35,6 +39,7 @@ using rbdgrad::cuda::KernelScalars;
 
 struct Options {
   std::string robot = "talos_reduced";
+  bool warp = false;
   std::vector<KernelScalars> scalars = {KernelScalars::kF64, KernelScalars::kF64ForF32};
   std::string build = "columns";
   int cap = -1;  // -1: the plugin's
@@ -44,7 +49,7 @@ struct Options {
 
 int usage(const char* why) {
   std::fprintf(stderr,
-               "cuda_kernel_registers: %s\nusage: cuda_kernel_registers [--robot NAME] "
+               "cuda_kernel_registers: %s\nusage: cuda_kernel_registers [--robot NAME] [--kernel block|warp] "
                "[--scalars f64|f64-for-f32|f32|both] [--build compact|lean|chains|columns] [--cap N] "
                "[--headers DIR] [--cubin FILE]\n",
                why);
@@ -95,6 +100,9 @@ int main(int argc, char** argv) {
     const std::string value = argv[++i];
     if (arg == "--robot") {
       o.robot = value;
+    } else if (arg == "--kernel") {
+      if (value != "block" && value != "warp") return usage(("unknown --kernel " + value).c_str());
+      o.warp = value == "warp";
     } else if (arg == "--scalars") {
       if (value == "f64") o.scalars = {KernelScalars::kF64};
       else if (value == "f64-for-f32") o.scalars = {KernelScalars::kF64ForF32};
@@ -137,10 +145,14 @@ int main(int argc, char** argv) {
   build.tree_columns = o.build == "columns";
   build.register_cap = o.cap >= 0 ? o.cap : rbdgrad::cuda::compact_register_cap(model, lean, {}, hopper_sm());
 
+  if (o.warp && model.nv > rbdgrad::cuda::kMaxWarpNv) return usage(("no warp kernel for " + o.robot).c_str());
+  // the warp kernel: one program for f64 and f32 batches (computed in f64 either way)
+  if (o.warp) o.scalars = {KernelScalars::kF64};
   bool spilled = false;
   for (const KernelScalars scalars : o.scalars) {
     rbdgrad::cuda::NvrtcProgram program =
-        rbdgrad::cuda::block_kernel_program(model, scalars, 90, rbdgrad::cuda::block_stages::kPerBatch, build);
+        o.warp ? rbdgrad::cuda::warp_kernel_program(model, true, 90)
+               : rbdgrad::cuda::block_kernel_program(model, scalars, 90, rbdgrad::cuda::block_stages::kPerBatch, build);
     std::vector<std::string> texts;
     if (!o.headers.empty() && !headers_from(o.headers, program, texts)) return 2;
     program.options.push_back("--ptxas-options=--verbose");
@@ -152,9 +164,13 @@ int main(int argc, char** argv) {
       return 2;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("%s (%s, %s): cap %d, compiled in %.1f s (NVRTC %s)\n", program.name.c_str(),
-                rbdgrad::cuda::kernel_scalars_name(scalars), o.build.c_str(), build.register_cap, seconds,
-                version.c_str());
+    if (o.warp)
+      std::printf("%s (warp kernel, f64 and f32 batches): compiled in %.1f s (NVRTC %s)\n", program.name.c_str(),
+                  seconds, version.c_str());
+    else
+      std::printf("%s (%s, %s): cap %d, compiled in %.1f s (NVRTC %s)\n", program.name.c_str(),
+                  rbdgrad::cuda::kernel_scalars_name(scalars), o.build.c_str(), build.register_cap, seconds,
+                  version.c_str());
     for (const rbdgrad::cuda::PtxasFunction& f : rbdgrad::cuda::ptxas_functions(out.log)) {
       std::printf("  %s %s: %d registers, %d bytes stack frame, %d bytes spill stores, %d bytes spill loads\n",
                   f.entry ? "kernel" : "function", f.name.c_str(), f.registers, f.stack_frame, f.spill_stores,
