@@ -51,19 +51,19 @@ std::vector<PtxasFunction> ptxas_functions(const std::string& log) {
   static const std::string kEntry = "Compiling entry function ";
   static const std::string kProperties = "Function properties for ";
   while (std::getline(lines, line)) {
-    if (const std::size_t at = line.find(kEntry); at != std::string::npos) {
-      entries.push_back(function_name(line, at + kEntry.size()));
-    } else if (const std::size_t at = line.find(kProperties); at != std::string::npos) {
-      current = function_named(function_name(line, at + kProperties.size()));
+    const std::size_t entry_at = line.find(kEntry), properties_at = line.find(kProperties);
+    if (entry_at != std::string::npos) {
+      entries.push_back(function_name(line, entry_at + kEntry.size()));
+    } else if (properties_at != std::string::npos) {
+      current = function_named(function_name(line, properties_at + kProperties.size()));
       in_function = true;
     } else if (in_function && line.find("bytes stack frame") != std::string::npos) {
       PtxasFunction& f = functions[current];
       f.stack_frame = number_before(line, "bytes stack frame");
       f.spill_stores = number_before(line, "bytes spill stores");
       f.spill_loads = number_before(line, "bytes spill loads");
-    } else if (const std::size_t at = line.find("Used "); in_function && at != std::string::npos &&
-                                                          line.find(" registers", at) != std::string::npos) {
-      functions[current].registers = std::stoi(line.substr(at + 5));
+    } else if (in_function && line.find("Used ") != std::string::npos) {
+      functions[current].registers = number_before(line, "registers");
     }
   }
   for (PtxasFunction& f : functions)
