@@ -56,17 +56,6 @@ int usage(const char* why) {
   return 2;
 }
 
-// an H100 SXM's or an H200's SM (cudaDeviceProp; the same SM), for the plugin's register cap
-rbdgrad::cuda::SmLimits hopper_sm() {
-  rbdgrad::cuda::SmLimits sm;
-  sm.shared_bytes = 233472;
-  sm.reserved_shared_bytes = 1024;
-  sm.registers = 65536;
-  sm.max_threads = 2048;
-  sm.max_blocks = 32;
-  return sm;
-}
-
 // the program's headers read from dir where it has them (each must be there: a header missing
 // from dir would silently compile the built-in one)
 bool headers_from(const std::string& dir, rbdgrad::cuda::NvrtcProgram& program, std::vector<std::string>& texts) {
@@ -143,7 +132,8 @@ int main(int argc, char** argv) {
   build.lean = lean;
   build.tree_chains = o.build == "chains" || o.build == "columns";
   build.tree_columns = o.build == "columns";
-  build.register_cap = o.cap >= 0 ? o.cap : rbdgrad::cuda::compact_register_cap(model, lean, {}, hopper_sm());
+  build.register_cap =
+      o.cap >= 0 ? o.cap : rbdgrad::cuda::compact_register_cap(model, lean, {}, rbdgrad::cuda::hopper_sm_limits());
 
   if (o.warp && model.nv > rbdgrad::cuda::kMaxWarpNv) return usage(("no warp kernel for " + o.robot).c_str());
   // the warp kernel: one program for f64 and f32 batches (computed in f64 either way)

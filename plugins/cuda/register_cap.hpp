@@ -18,6 +18,18 @@ struct SmLimits {
   int max_blocks = 0;                   // maxBlocksPerMultiProcessor
 };
 
+/// An H100 SXM's or an H200's SM (the same SM; their cudaDeviceProp): what the register caps are
+/// checked against where no GPU is (the tests, bench/plugins/cuda_kernel_registers.cpp).
+inline SmLimits hopper_sm_limits() {
+  SmLimits sm;
+  sm.shared_bytes = 233472;  // 228 KiB
+  sm.reserved_shared_bytes = 1024;
+  sm.registers = 65536;
+  sm.max_threads = 2048;
+  sm.max_blocks = 32;
+  return sm;
+}
+
 /// An SM's registers are split among its sub-partitions (4 since Volta), each serving the warps it
 /// holds: a warp's registers come from its partition's share, so the warps a partition holds,
 /// not the SM's, set what each may take (ptxas counts them so for __launch_bounds__).

@@ -252,12 +252,7 @@ void expect_talos_build_holds_its_cap(const cuda::BlockBuild& build, const char*
 // fewer than 64: the smaller robots).
 TEST(KernelSource, EveryRobotsLeanBuildHoldsItsRegisterCapWithoutSpills) {
   SKIP_WITHOUT_NVRTC();
-  cuda::SmLimits hopper;  // cudaDeviceProp of an H100 SXM or an H200 (the same SM)
-  hopper.shared_bytes = 233472;
-  hopper.reserved_shared_bytes = 1024;
-  hopper.registers = 65536;
-  hopper.max_threads = 2048;
-  hopper.max_blocks = 32;
+  const cuda::SmLimits hopper = cuda::hopper_sm_limits();
   for (std::string_view name : embedded_robot_names()) {
     const Model model = load_embedded(std::string(name));
     // (M^-1 by the tree's chains where they fit, its columns by the tree's blocks, as the plugin's

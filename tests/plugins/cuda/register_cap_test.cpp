@@ -13,15 +13,7 @@ namespace rbdgrad::testing {
 namespace {
 
 // cudaDeviceProp of an H200 (and of an H100 SXM: the same SM)
-cuda::SmLimits h200() {
-  cuda::SmLimits sm;
-  sm.shared_bytes = 233472;  // 228 KiB
-  sm.reserved_shared_bytes = 1024;
-  sm.registers = 65536;
-  sm.max_threads = 2048;
-  sm.max_blocks = 32;
-  return sm;
-}
+cuda::SmLimits h200() { return cuda::hopper_sm_limits(); }
 
 // Shared memory of a block of one state (its size does not depend on the threads) for an f64
 // batch from tau without a caller's M^-1: the dense kernel, the compact one, or its lean working set.
