@@ -179,14 +179,18 @@ RBDGRAD_HD S skew_at(const S* x, int row, int col) {
   const S value = x[3 - row - col];
   return (col - row + 3) % 3 == 1 ? -value : value;
 }
-// the same for a 3-vector a thread holds, by selects: indexed at run time, ptxas puts the array
-// in local memory (talos_reduced's inertia pass: 48 bytes of its kernel's stack frame, stored and
+// x[i] of a 3-vector a thread holds, by selects: indexed at run time, ptxas puts the array in
+// local memory (talos_reduced's inertia pass: 48 bytes of its kernel's stack frame, stored and
 // loaded through L1 on every item)
+template <class S>
+RBDGRAD_HD S held_at(const S (&x)[3], int i) {
+  return i == 0 ? x[0] : i == 1 ? x[1] : x[2];
+}
+// skew_at for a 3-vector a thread holds
 template <class S>
 RBDGRAD_HD S skew_held(const S (&x)[3], int row, int col) {
   if (row == col) return S(0);
-  const int at = 3 - row - col;
-  const S value = at == 0 ? x[0] : at == 1 ? x[1] : x[2];
+  const S value = held_at(x, 3 - row - col);
   return (col - row + 3) % 3 == 1 ? -value : value;
 }
 // the gravity acceleration [0; -g], component c. By selects, not m.gravity[c - 3]: an index known
@@ -462,7 +466,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S mc[3] = {mass * c[0], mass * c[1], mass * c[2]};
       S value;
       if (local < 3) {
-        value = local == 0 ? mc[0] : local == 1 ? mc[1] : mc[2];  // (selects: as skew_held)
+        value = block::held_at(mc, local);
       } else {
         const int r = local < 6 ? 0 : local < 8 ? 1 : 2, k = local < 6 ? local - 3 : local < 8 ? local - 5 : 2;
         using block::skew_held;
