@@ -13,8 +13,10 @@
 // Defaults: talos_reduced; f64 and f64 for f32 (both); the plugin's default build for it
 // (columns: the lean working set, M^-1 by the tree's chains and its columns by the tree's blocks);
 // the register cap the plugin gives that build on an H100 or H200 (64 for talos_reduced).
-// Exit status: 0 when every build compiled without spills, 1 when one spilled, 2 on bad arguments
-// or a failed compilation, 77 where NVRTC is not installed (CTest's skip).
+// Exit status: 0 when every build compiled without spills, 1 when one spilled, 2 on bad arguments,
+// a failed compilation or a log without ptxas's report on the kernel, 77 where NVRTC is not
+// installed (CTest's skip).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -161,7 +163,12 @@ int main(int argc, char** argv) {
       std::printf("%s (%s, %s): cap %d, compiled in %.1f s (NVRTC %s)\n", program.name.c_str(),
                   rbdgrad::cuda::kernel_scalars_name(scalars), o.build.c_str(), build.register_cap, seconds,
                   version.c_str());
-    for (const rbdgrad::cuda::PtxasFunction& f : rbdgrad::cuda::ptxas_functions(out.log)) {
+    const std::vector<rbdgrad::cuda::PtxasFunction> functions = rbdgrad::cuda::ptxas_functions(out.log);
+    if (std::none_of(functions.begin(), functions.end(), [](const auto& f) { return f.entry && f.registers > 0; })) {
+      std::fprintf(stderr, "cuda_kernel_registers: no kernel's registers in ptxas's report:\n%s\n", out.log.c_str());
+      return 2;
+    }
+    for (const rbdgrad::cuda::PtxasFunction& f : functions) {
       std::printf("  %s %s: %d registers, %d bytes stack frame, %d bytes spill stores, %d bytes spill loads\n",
                   f.entry ? "kernel" : "function", f.name.c_str(), f.registers, f.stack_frame, f.spill_stores,
                   f.spill_loads);
