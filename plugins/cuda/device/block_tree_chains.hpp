@@ -305,6 +305,20 @@ RBDGRAD_HD void tree_chains_mass_inverse(const TreeChains<N>& chains, const Tree
     return;
   }
 #endif
+#if defined(RBDGRAD_SHARED_TRACE) && !defined(__CUDA_ARCH__)
+  // (a host tool tracing the GPU's threads: the split as the GPU runs it)
+  if (g.trace != nullptr && tree_chains_split(g)) {
+    ThreadGroup warp = g, others = g;
+    warp.size = 32;
+    warp.warp_sync = true;
+    others.first_rank = 32;
+    others.size = g.size - 32;
+    tree_chains_walk<kPairs, kRounds, kSlots, kBlocks, kSegments>(chains, columns, m, axis, Ic_S, IA_S, pivots, failed,
+                                                                  inverse, row_at, warp);
+    others.for_each(extra_items, extra);
+    return;
+  }
+#endif
   tree_chains_walk<kPairs, kRounds, kSlots, kBlocks, kSegments>(chains, columns, m, axis, Ic_S, IA_S, pivots, failed,
                                                                 inverse, row_at, g);
   g.for_each(extra_items, extra);

@@ -19,9 +19,24 @@
 
 namespace rbdgrad::cuda {
 
+// (a host tool tracing the shared-memory accesses names each pair by the code that asks for it:
+// these inlined there)
+#if defined(RBDGRAD_SHARED_TRACE) && !defined(__CUDA_ARCH__)
+#define RBDGRAD_PAIR_HD [[gnu::always_inline]] inline
+#else
+#define RBDGRAD_PAIR_HD RBDGRAD_HD
+#endif
+
+#if !defined(__CUDA_ARCH__)
+// A pair's access as one, for a host tool whose scalar type traces the kernel's shared-memory
+// accesses (bench/plugins/shared_access_trace.hpp overloads it for its type); nothing otherwise.
+template <class S>
+void pair_access(const S*, bool /*store*/) {}
+#endif
+
 // p[0] and p[1] into a and b; p aligned to 2 sizeof(S)
 template <class S>
-RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
+RBDGRAD_PAIR_HD void load_pair(const S* p, S& a, S& b) {
 #if defined(__CUDA_ARCH__)
   if constexpr (sizeof(S) == sizeof(double)) {
     const double2 v = *reinterpret_cast<const double2*>(p);
@@ -34,6 +49,7 @@ RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
   }
 #else
   if (reinterpret_cast<std::uintptr_t>(p) % (2 * sizeof(S)) != 0) std::abort();
+  pair_access(p, false);
   a = p[0];
   b = p[1];
 #endif
@@ -41,7 +57,7 @@ RBDGRAD_HD void load_pair(const S* p, S& a, S& b) {
 
 // a and b into p[0] and p[1]; p aligned to 2 sizeof(S)
 template <class S>
-RBDGRAD_HD void store_pair(S* p, S a, S b) {
+RBDGRAD_PAIR_HD void store_pair(S* p, S a, S b) {
 #if defined(__CUDA_ARCH__)
   if constexpr (sizeof(S) == sizeof(double)) {
     *reinterpret_cast<double2*>(p) = double2{a, b};
@@ -50,6 +66,7 @@ RBDGRAD_HD void store_pair(S* p, S a, S b) {
   }
 #else
   if (reinterpret_cast<std::uintptr_t>(p) % (2 * sizeof(S)) != 0) std::abort();
+  pair_access(static_cast<const S*>(p), true);
   p[0] = a;
   p[1] = b;
 #endif
@@ -57,7 +74,7 @@ RBDGRAD_HD void store_pair(S* p, S a, S b) {
 
 // p[0] and p[1]: one load (kPairs, p aligned to 2 sizeof(S)), else two
 template <bool kPairs, class S>
-RBDGRAD_HD void load_pair_or_two(const S* p, S& a, S& b) {
+RBDGRAD_PAIR_HD void load_pair_or_two(const S* p, S& a, S& b) {
   if constexpr (kPairs) {
     load_pair(p, a, b);
   } else {
@@ -67,7 +84,7 @@ RBDGRAD_HD void load_pair_or_two(const S* p, S& a, S& b) {
 }
 // the same for a store
 template <bool kPairs, class S>
-RBDGRAD_HD void store_pair_or_two(S* p, S a, S b) {
+RBDGRAD_PAIR_HD void store_pair_or_two(S* p, S a, S b) {
   if constexpr (kPairs) {
     store_pair(p, a, b);
   } else {
@@ -79,7 +96,7 @@ RBDGRAD_HD void store_pair_or_two(S* p, S a, S b) {
 // the 6-vector at p into x: as three pairs (kPairs, p aligned to 2 sizeof(S)), else a scalar a
 // load (the layouts that do not align their vectors)
 template <bool kPairs, class S>
-RBDGRAD_HD void load_six(const S* p, S (&x)[6]) {
+RBDGRAD_PAIR_HD void load_six(const S* p, S (&x)[6]) {
   if constexpr (kPairs) {
     load_pair(p, x[0], x[1]);
     load_pair(p + 2, x[2], x[3]);

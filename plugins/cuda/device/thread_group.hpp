@@ -9,6 +9,19 @@
 
 namespace rbdgrad::cuda {
 
+#if defined(RBDGRAD_SHARED_TRACE) && !defined(__CUDA_ARCH__)
+// Host tool builds only (bench/plugins/cuda_shared_wavefronts.cpp): told which of the group's
+// threads runs each item (as the GPU spreads them) and of each sync, so that the kernel's
+// shared-memory accesses can be grouped into a warp's instructions.
+struct SharedTraceThreads {
+  virtual void thread(int rank) = 0;
+  virtual void sync(bool warp) = 0;
+
+ protected:
+  ~SharedTraceThreads() = default;
+};
+#endif
+
 struct ThreadGroup {
   int rank = 0;
   int size = 1;
@@ -25,8 +38,15 @@ struct ThreadGroup {
   long long* clocks = nullptr;
   mutable int pass = 0;
 #endif
+#if defined(RBDGRAD_SHARED_TRACE) && !defined(__CUDA_ARCH__)
+  SharedTraceThreads* trace = nullptr;
+  int first_rank = 0;  // the block's thread that is this group's rank 0 (a split group's part)
+#endif
 
   RBDGRAD_HD void sync() const {
+#if defined(RBDGRAD_SHARED_TRACE) && !defined(__CUDA_ARCH__)
+    if (trace != nullptr) trace->sync(warp_sync);
+#endif
 #if defined(__CUDA_ARCH__)
     if (warp_sync) __syncwarp();
     else __syncthreads();
@@ -48,7 +68,16 @@ struct ThreadGroup {
     if (reverse) {
       for (int item = count - 1; item >= 0; --item) f(item);
     } else {
+#if defined(RBDGRAD_SHARED_TRACE)
+      // (one copy of the item's code: a site of it is one instruction of the warp)
+#pragma GCC unroll 1
+      for (int item = 0; item < count; ++item) {
+        if (trace != nullptr) trace->thread(first_rank + item % size);
+        f(item);
+      }
+#else
       for (int item = 0; item < count; ++item) f(item);
+#endif
     }
 #else
     for (int item = rank; item < count; item += size) f(item);
