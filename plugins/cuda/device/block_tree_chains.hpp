@@ -15,7 +15,8 @@
 // talos_reduced's kernel at its 64 registers). A chain whose bottom has several children starts
 // from the sum of their chains' P, which they leave there too; it runs in a later round. Every
 // round's chains fit one warp (five chains of six lanes); in a group of whole warps the first
-// walks them, each step's halves synced as a warp, then finds M^-1's columns (inverse_column, or
+// walks them, a warp sync a step (a step finds D_i and P from U_i, then its lane's entry of the
+// next joint's U from the P it holds, not read back from the scratch), then finds M^-1's columns (inverse_column, or
 // block_tree_columns.hpp's), a thread a column, while the other warps run the caller's work
 // (d tau/d qd's rows): one synced pass for the caller, where the generic form takes a pass a level
 // and one for the columns.
@@ -165,10 +166,26 @@ RBDGRAD_HD S* chain_row(const TreeChains<N>& t, const ChainLane& c, S* scratch) 
   return scratch + kChainScratch * (t.slots + c.chain) + 6 * c.entry;
 }
 
-// P at the chain's bottom: zero, or the sum of its children's chains' (round > 0)
+// U_i's entry e = Ic_i S_i - P S_i, P's row e given (a lane's, in registers: the step that found
+// it, so that it is not read back from the scratch)
+template <bool kPairs, class S>
+RBDGRAD_HD S chain_u_entry(const S* axis_i, S Ic_S_entry, const S (&P)[6]) {
+  S ps = S(0);
+  for (int k = 0; k < 6; k += 2) {
+    S s0, s1;
+    load_pair_or_two<kPairs>(axis_i + k, s0, s1);
+    ps = k == 0 ? P[k] * s0 : ps + P[k] * s0;
+    ps += P[k + 1] * s1;
+  }
+  return Ic_S_entry - ps;
+}
+
+// P at the chain's bottom: zero, or the sum of its children's chains' (round > 0); and the
+// chain's first step's entry of U (its bottom's) from it
 // (kSlots: t.slots, or more: a constant, so that the loop unrolls before the table is read)
-template <int kSlots, class S, int N>
-RBDGRAD_HD void chain_start(const TreeChains<N>& t, int round, const ChainLane& c, S* scratch) {
+template <bool kPairs, int kSlots, class S, int N>
+RBDGRAD_HD void chain_start(const TreeChains<N>& t, int round, const ChainLane& c, const S* axis, const S* Ic_S,
+                            S* IA_S, S* scratch) {
   if (!c.active) return;
   S P[6];
   for (int k = 0; k < 6; ++k) P[k] = S(0);
@@ -182,32 +199,17 @@ RBDGRAD_HD void chain_start(const TreeChains<N>& t, int round, const ChainLane& 
   }
   S* const row = chain_row(t, c, scratch);
   for (int k = 0; k < 6; ++k) row[k] = P[k];
+  const int i = c.bottom;
+  IA_S[6 * i + c.entry] = chain_u_entry<kPairs>(axis + 6 * i, Ic_S[6 * i + c.entry], P);
 }
 
-// Step s of the chain (its joint i = bottom - s), first half: entry e of U_i = Ic_i S_i - P S_i
+// Step s of the chain (its joint i = bottom - s), after the warp's sync (U_i whole): D_i = S_i .
+// U_i and its pivot (as articulated_axes keeps it: 1/D_i, or D_i where that is not positive,
+// flagged), P += U_i U_i^T / D_i; then the next step's entry of U (U_(i-1) = Ic S - P S) from the
+// P just found, or at the chain's top, P for its parent's chain
 template <bool kPairs, class S, int N>
-RBDGRAD_HD void chain_entry(const TreeChains<N>& t, const ChainLane& c, int s, const S* axis, const S* Ic_S, S* IA_S,
-                            const S* scratch) {
-  if (!c.active || s >= c.length) return;
-  const int i = c.bottom - s;
-  const S* const P = chain_row(t, c, scratch);
-  S ps = S(0);
-  for (int k = 0; k < 6; k += 2) {
-    S s0, s1, p0, p1;
-    load_pair_or_two<kPairs>(axis + 6 * i + k, s0, s1);
-    load_pair_or_two<kPairs>(P + k, p0, p1);
-    ps = k == 0 ? p0 * s0 : ps + p0 * s0;
-    ps += p1 * s1;
-  }
-  IA_S[6 * i + c.entry] = Ic_S[6 * i + c.entry] - ps;
-}
-
-// Second half, after the warp's sync: D_i = S_i . U_i and its pivot (as articulated_axes keeps
-// it: 1/D_i, or D_i where that is not positive, flagged), P += U_i U_i^T / D_i; at the chain's top,
-// P for its parent's chain
-template <bool kPairs, class S, int N>
-RBDGRAD_HD void chain_pivot(const TreeChains<N>& t, const ChainLane& c, int s, const S* axis, const S* IA_S, S* pivots,
-                            std::uint32_t* failed, S* scratch) {
+RBDGRAD_HD void chain_step(const TreeChains<N>& t, const ChainLane& c, int s, const S* axis, const S* Ic_S, S* IA_S,
+                           S* pivots, std::uint32_t* failed, S* scratch) {
   if (!c.active || s >= c.length) return;
   const int i = c.bottom - s;
   const S* const Ui = IA_S + 6 * i;
@@ -228,14 +230,24 @@ RBDGRAD_HD void chain_pivot(const TreeChains<N>& t, const ChainLane& c, int s, c
   // (U_i read again: held through the division, it made ptxas spill at 64 registers)
   const S scaled = Ui[c.entry] * pivot;
   S* const P = chain_row(t, c, scratch);
+  const bool top = s == c.length - 1;
   // at the chain's top, P for its parent's chain (in its slot)
-  S* const to = s == c.length - 1 && c.top_slot >= 0 ? scratch + kChainScratch * c.top_slot + 6 * c.entry : P;
+  S* const to = top && c.top_slot >= 0 ? scratch + kChainScratch * c.top_slot + 6 * c.entry : P;
+  // (the next entry's product summed as P's row is stored: held as a row, it made ptxas spill)
+  const S* const next_axis = axis + 6 * (top ? i : i - 1);
+  S ps = S(0);
   for (int k = 0; k < 6; k += 2) {
-    S u0, u1, p0, p1;
+    S u0, u1, p0, p1, s0, s1;
     load_pair_or_two<kPairs>(Ui + k, u0, u1);
     load_pair_or_two<kPairs>(P + k, p0, p1);
-    store_pair_or_two<kPairs>(to + k, p0 + scaled * u0, p1 + scaled * u1);
+    p0 += scaled * u0;
+    p1 += scaled * u1;
+    store_pair_or_two<kPairs>(to + k, p0, p1);
+    load_pair_or_two<kPairs>(next_axis + k, s0, s1);
+    ps = k == 0 ? p0 * s0 : ps + p0 * s0;
+    ps += p1 * s1;
   }
+  if (!top) IA_S[6 * (i - 1) + c.entry] = Ic_S[6 * (i - 1) + c.entry] - ps;
 }
 
 // Whether a group's chains take its first warp and its other threads the caller's extra work: a
@@ -257,18 +269,17 @@ RBDGRAD_HD void tree_chains_walk(const TreeChains<N>& chains, const TreeColumns<
   RBDGRAD_TREE_UNROLL
   for (int round = 0; round < kRounds; ++round) {
     if (round >= chains.rounds) break;
-    // (a lane's P is its own until its chain's top: no sync before a step's first half)
-    t.for_each(32, [&](int lane) { chain_start<kSlots>(chains, round, chain_lane(chains, round, lane), inverse); });
+    // (a lane's P is its own until its chain's top: no sync before a step's first entry of U)
+    t.for_each(32, [&](int lane) {
+      chain_start<kPairs, kSlots>(chains, round, chain_lane(chains, round, lane), axis, Ic_S, IA_S, inverse);
+    });
 #if defined(__CUDA_ARCH__)
 #pragma unroll 1
 #endif
     for (int s = 0; s < chains.longest[round]; ++s) {
-      t.for_each(32, [&](int lane) {
-        chain_entry<kPairs>(chains, chain_lane(chains, round, lane), s, axis, Ic_S, IA_S, inverse);
-      });
       t.sync();
       t.for_each(32, [&](int lane) {
-        chain_pivot<kPairs>(chains, chain_lane(chains, round, lane), s, axis, IA_S, pivots, failed, inverse);
+        chain_step<kPairs>(chains, chain_lane(chains, round, lane), s, axis, Ic_S, IA_S, pivots, failed, inverse);
       });
     }
     t.sync();
