@@ -8,7 +8,9 @@
 // a measurement: Nsight Compute's counts (scripts/gpu-checks.sh, STEPS=profile) are the measured
 // ones.
 //
-//   cuda_shared_wavefronts [--robot talos_reduced|iiwa14] [--threads 128] [--top 25]
+//   cuda_shared_wavefronts [--robot talos_reduced|iiwa14] [--threads 128] [--top 25] [--pass P]
+// (--pass: the source lines of pass P alone; --top 0 lists none; the lines by excess, or with
+// --by-wavefronts by wavefronts)
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -103,14 +105,17 @@ std::string source_line(const std::vector<std::string>& frames) {
 
 int main(int argc, char** argv) {
   std::string robot = "talos_reduced";
-  int threads = 128, top = 25;
+  int threads = 128, top = 25, only_pass = -1;
+  bool by_wavefronts = false;
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
     if (arg == "--robot" && a + 1 < argc) robot = argv[++a];
     else if (arg == "--threads" && a + 1 < argc) threads = std::atoi(argv[++a]);
     else if (arg == "--top" && a + 1 < argc) top = std::atoi(argv[++a]);
+    else if (arg == "--pass" && a + 1 < argc) only_pass = std::atoi(argv[++a]);
+    else if (arg == "--by-wavefronts") by_wavefronts = true;
     else {
-      std::fprintf(stderr, "usage: cuda_shared_wavefronts [--robot talos_reduced|iiwa14] [--threads N] [--top N]\n");
+      std::fprintf(stderr, "usage: cuda_shared_wavefronts [--robot talos_reduced|iiwa14] [--threads N] [--top N] [--pass P] [--by-wavefronts]\n");
       return 2;
     }
   }
@@ -143,10 +148,16 @@ int main(int argc, char** argv) {
   Sum total;
   for (const auto& i : instructions) {
     const shared_trace::Wavefronts f = shared_trace::wavefronts(i.lanes);
-    for (Sum* s : {&by_pass[i.pass], &by_site[i.site], &total}) {
+    for (Sum* s : {&by_pass[i.pass], &total}) {
       ++s->instructions;
       s->wavefronts += f.actual;
       s->ideal += f.ideal;
+    }
+    if (only_pass < 0 || i.pass == only_pass) {
+      Sum& s = by_site[i.site];
+      ++s.instructions;
+      s.wavefronts += f.actual;
+      s.ideal += f.ideal;
     }
   }
   std::printf("%s, one f64 state from tau (d qdd/d q, d qdd/d qd), %d threads: %ld warp instructions that "
@@ -165,9 +176,11 @@ int main(int argc, char** argv) {
     l.ideal += s.ideal;
   }
   std::vector<std::pair<std::string, Sum>> lines(by_line.begin(), by_line.end());
-  std::sort(lines.begin(), lines.end(), [](const auto& x, const auto& y) {
+  std::sort(lines.begin(), lines.end(), [&](const auto& x, const auto& y) {
+    if (by_wavefronts) return x.second.wavefronts > y.second.wavefronts;
     return x.second.wavefronts - x.second.ideal > y.second.wavefronts - y.second.ideal;
   });
+  if (only_pass >= 0) std::printf("\npass %d's source lines:\n", only_pass);
   std::printf("\n| source line | instructions | wavefronts | ideal | excess |\n|---|---:|---:|---:|---:|\n");
   for (std::size_t k = 0; k < lines.size() && static_cast<int>(k) < top; ++k) {
     const Sum& s = lines[k].second;

@@ -16,8 +16,9 @@
 // from the sum of their chains' P, which they leave there too; it runs in a later round. Every
 // round's chains fit one warp (five chains of six lanes); in a group of whole warps the first
 // walks them, a warp sync a step (a step finds D_i and P from U_i, then its lane's entry of the
-// next joint's U from the P it holds, not read back from the scratch), then finds M^-1's columns (inverse_column, or
-// block_tree_columns.hpp's), a thread a column, while the other warps run the caller's work
+// next joint's U from the P it holds, not read back from the scratch), then finds M^-1's
+// columns (inverse_column, or block_tree_columns.hpp's), a thread a column, while the other
+// warps run the caller's work
 // (d tau/d qd's rows): one synced pass for the caller, where the generic form takes a pass a level
 // and one for the columns.
 // The sums are those of the generic passes in another order, so the results match the core as
