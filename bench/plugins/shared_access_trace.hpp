@@ -45,6 +45,9 @@ struct Instruction {
   int warp = 0, pass = 0;
   const void* site = nullptr;
   bool store = false;
+  // a load whose every lane reads words its own thread stored last (values a thread could have
+  // kept in its registers, the items mapped as they are)
+  bool own = false;
   std::vector<std::pair<int, Access>> lanes;  // (lane, access)
 };
 
@@ -115,12 +118,36 @@ class Recorder final : public rbdgrad::cuda::SharedTraceThreads {
   // first lane made them. `same` maps the host compiler's copies of one site (a loop's first
   // iteration peeled, say) to one of them (source_sites below); a site not in it is its own.
   std::vector<Instruction> instructions(const std::map<const void*, const void*>& same = {}) const {
+    // whose thread stored each word last, pass by pass (within a pass, the threads one after
+    // another: no item reads what another item of its pass writes); own[t][k]: access k of
+    // thread t is a load of words thread t stored last
+    std::vector<std::vector<bool>> own(per_thread_.size());
+    {
+      std::map<std::uint32_t, std::size_t> writer;
+      std::vector<std::size_t> next(per_thread_.size(), 0);
+      for (int pass = 0; pass <= pass_; ++pass)
+        for (std::size_t t = 0; t < per_thread_.size(); ++t)
+          for (; next[t] < per_thread_[t].size() && per_thread_[t][next[t]].pass == pass; ++next[t]) {
+            const Access& a = per_thread_[t][next[t]];
+            bool mine = !a.store;
+            for (std::uint32_t w = a.offset / 4; w < (a.offset + a.bytes + 3) / 4; ++w) {
+              if (a.store) {
+                writer[w] = t;
+              } else {
+                const auto it = writer.find(w);
+                mine = mine && it != writer.end() && it->second == t;
+              }
+            }
+            own[t].push_back(mine);
+          }
+    }
     std::map<std::tuple<int, const void*, int>, std::size_t> index;  // (warp, site, k)
     std::vector<Instruction> out;
     for (std::size_t t = 0; t < per_thread_.size(); ++t) {
       const int warp = static_cast<int>(t / 32), lane = static_cast<int>(t % 32);
       std::map<const void*, int> seen;
-      for (const Access& a : per_thread_[t]) {
+      for (std::size_t k = 0; k < per_thread_[t].size(); ++k) {
+        const Access& a = per_thread_[t][k];
         const auto found = same.find(a.site);
         const void* site = found == same.end() ? a.site : found->second;
         const auto key = std::make_tuple(warp, site, seen[site]++);
@@ -131,9 +158,11 @@ class Recorder final : public rbdgrad::cuda::SharedTraceThreads {
           i.pass = a.pass;
           i.site = site;
           i.store = a.store;
+          i.own = !a.store;
           out.push_back(i);
         }
         out[it->second].lanes.emplace_back(lane, a);
+        out[it->second].own = out[it->second].own && own[t][k];
       }
     }
     return out;

@@ -47,7 +47,8 @@ TEST(SharedAccessTrace, WavefrontsOfKnownPatterns) {
 }
 
 // A pass of 64 items on 64 threads (two warps), each item loading its element and storing it
-// doubled: each warp one load and one store instruction; a pair read as one 16-byte access
+// doubled: each warp one load and one store instruction; a pair read as one 16-byte access; a
+// load of what the same thread stored is its own value
 TEST(SharedAccessTrace, ItemsBecomeWarpInstructions) {
   std::vector<Traced> shared(160, Traced(1.0));
   auto& r = shared_trace::recorder;
@@ -65,26 +66,37 @@ TEST(SharedAccessTrace, ItemsBecomeWarpInstructions) {
     cuda::load_pair(shared.data() + 128, a, b);  // every lane the same pair: a broadcast
     shared[t] = a * b;
   });
+  g.sync();
+  // threads 0..31 read back what they stored in the first pass: loads of their own values
+  g.for_each(32, [&](int t) {
+    const Traced y = shared[64 + t];
+    EXPECT_EQ(y.v, 2.0);
+  });
   // (the host compiler's copies of a site made one, as the tool does)
   const std::vector<shared_trace::Instruction> is = r.instructions(shared_trace::source_sites(r.sites()).same);
-  ASSERT_EQ(is.size(), 6u);
-  int loads = 0, stores = 0, total = 0;
+  ASSERT_EQ(is.size(), 7u);
+  int loads = 0, stores = 0, total = 0, own = 0;
   for (const auto& i : is) {
     (i.store ? stores : loads)++;
+    own += i.own ? 1 : 0;
+    if (i.own) {
+      EXPECT_EQ(i.pass, 2);
+    }
     total += shared_trace::wavefronts(i.lanes).actual;
     EXPECT_EQ(i.lanes.size(), 32u);
     if (i.pass == 1) {
       EXPECT_EQ(i.warp, 0);
     }
   }
-  EXPECT_EQ(loads, 3);
+  EXPECT_EQ(loads, 4);
   EXPECT_EQ(stores, 3);
-  // pass 0: 2 + 2 a warp; pass 1: the pair a broadcast (1), the store 2
-  EXPECT_EQ(total, 11);
+  EXPECT_EQ(own, 1);  // the last pass's load; the first pass's read what no thread stored
+  // pass 0: 2 + 2 a warp; pass 1: the pair a broadcast (1), the store 2; pass 2: 2
+  EXPECT_EQ(total, 13);
   // a value out of the watched range (a local) is not an access
   Traced local(2.0);
   const Traced copy = local;
-  EXPECT_EQ(r.instructions(shared_trace::source_sites(r.sites()).same).size(), 6u);
+  EXPECT_EQ(r.instructions(shared_trace::source_sites(r.sites()).same).size(), 7u);
   EXPECT_EQ(copy.v, 2.0);
 }
 
