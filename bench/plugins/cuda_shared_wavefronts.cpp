@@ -22,31 +22,9 @@
 
 #include "device/block_fused_state.hpp"
 #include "flat_model.hpp"
+#include "host_tree_view.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
-
-namespace tool {
-
-// A model type that fixes the tree as the kernel compiled for a robot does, from the view's
-// arrays (the tables the GPU build has as constants are found at run time: the same passes)
-template <int NV, int LEVELS>
-struct TreeView : rbdgrad::cuda::FixedSizeModelView<shared_trace::Traced, NV, LEVELS> {
-  explicit TreeView(const rbdgrad::cuda::ModelView<shared_trace::Traced>& view)
-      : rbdgrad::cuda::FixedSizeModelView<shared_trace::Traced, NV, LEVELS>(view) {}
-};
-
-}  // namespace tool
-
-namespace rbdgrad::cuda {
-template <int NV, int LEVELS>
-struct FixedSizes<tool::TreeView<NV, LEVELS>> : FixedSizes<FixedSizeModelView<shared_trace::Traced, NV, LEVELS>> {};
-template <int NV, int LEVELS>
-struct FixedTree<tool::TreeView<NV, LEVELS>> {
-  static constexpr bool known = true;
-  static int parent(const tool::TreeView<NV, LEVELS>& m, int i) { return m.parent[i]; }
-  static int subtree_end(const tool::TreeView<NV, LEVELS>& m, int i) { return m.subtree_end[i]; }
-};
-}  // namespace rbdgrad::cuda
 
 namespace {
 
@@ -56,7 +34,8 @@ using S = shared_trace::Traced;
 template <int NV, int LEVELS>
 bool trace_state(const rbdgrad::Model& model, int threads) {
   namespace cuda = rbdgrad::cuda;
-  using Model = tool::TreeView<NV, LEVELS>;
+  // the tree fixed as in the kernel the plugin compiles for the robot (its tables found at run time)
+  using Model = cuda::HostTreeView<S, NV, LEVELS>;
   const cuda::FlatModel<S> flat(model);
   const Model m(flat.host_view());
   const auto n = static_cast<std::size_t>(model.nv);

@@ -19,7 +19,6 @@
 #include <dlfcn.h>
 #include <map>
 #include <string>
-#include <unistd.h>
 #include <tuple>
 #include <vector>
 

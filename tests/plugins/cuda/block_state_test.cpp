@@ -21,29 +21,7 @@
 #include "cuda_test_support.hpp"
 #include "device/block_fused_state.hpp"
 #include "flat_model.hpp"
-
-namespace rbdgrad::testing {
-
-// A model type that fixes the tree as TreeModelView does (the lean kernel compiled for a robot,
-// kernel_source.cpp), here from the view's arrays: the passes that unroll over a fixed tree
-// (block_tree_sums.hpp) run on the host as loops.
-template <class S, int NV, int LEVELS>
-struct HostTreeView : cuda::FixedSizeModelView<S, NV, LEVELS> {
-  explicit HostTreeView(const cuda::ModelView<S>& view) : cuda::FixedSizeModelView<S, NV, LEVELS>(view) {}
-};
-
-}  // namespace rbdgrad::testing
-
-namespace rbdgrad::cuda {
-template <class S, int NV, int LEVELS>
-struct FixedSizes<testing::HostTreeView<S, NV, LEVELS>> : FixedSizes<FixedSizeModelView<S, NV, LEVELS>> {};
-template <class S, int NV, int LEVELS>
-struct FixedTree<testing::HostTreeView<S, NV, LEVELS>> {
-  static constexpr bool known = true;
-  static int parent(const testing::HostTreeView<S, NV, LEVELS>& m, int i) { return m.parent[i]; }
-  static int subtree_end(const testing::HostTreeView<S, NV, LEVELS>& m, int i) { return m.subtree_end[i]; }
-};
-}  // namespace rbdgrad::cuda
+#include "host_tree_view.hpp"
 
 namespace rbdgrad::testing {
 namespace {
@@ -212,7 +190,7 @@ void check_fixed_tree(const std::string& robot) {
   ASSERT_EQ(model.max_depth(), LEVELS) << robot;
   const std::vector<StateInputs> states = random_inputs(model, kStates, 13);
   constexpr int kPerBatch = cuda::block_stages::kPerBatch;
-  using Tree = HostTreeView<S, NV, LEVELS>;
+  using Tree = cuda::HostTreeView<S, NV, LEVELS>;
   for (const bool tau_input : {true, false}) {
     for (const OutputCase& c : kBlockCases) {
       const std::string where = robot + " " + scalar_name<S>() + " " + c.name + (tau_input ? ", tau input" : ", qdd input");

@@ -21,7 +21,7 @@
 namespace rbdgrad::testing {
 
 // A model view whose joint count and tree the chains take as fixed (the tree from the view's
-// arrays, at run time, as the block state tests' HostTreeView), its levels the view's
+// arrays, at run time, as host_tree_view.hpp's HostTreeView), its levels the view's
 template <int NV>
 struct ChainTestView : cuda::ModelView<double> {
   explicit ChainTestView(const cuda::ModelView<double>& view) : cuda::ModelView<double>(view) {}
