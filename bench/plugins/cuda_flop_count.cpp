@@ -11,13 +11,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 #include <string>
 #include <type_traits>
 #include <vector>
 
 #include "device/block_fused_state.hpp"
 #include "flat_model.hpp"
+#include "gradient_workload.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
 
@@ -68,24 +68,9 @@ template <bool kSingle, bool kLean = false>
 counting::Counts count_state(const rbdgrad::Model& model) {
   using S = counting::Counted<kSingle>;
   const rbdgrad::cuda::FlatModel<S> flat(model);
-  const auto n = static_cast<std::size_t>(model.nv);
   constexpr std::size_t kStates = 4;
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  std::vector<S> q(kStates * n), qd(kStates * n), tau(kStates * n), dq(kStates * n * n), dqd(kStates * n * n);
-  for (auto* x : {&q, &qd, &tau})
-    for (S& e : *x) e = S(uniform(rng));
-  std::vector<std::uint32_t> status(kStates);
-  rbdgrad::cuda::BatchPointers<S> b;
-  b.n = kStates;
-  b.outputs = rbdgrad::cuda::kOutputDqddDq | rbdgrad::cuda::kOutputDqddDqd;
-  b.tau_input = true;
-  b.q = q.data();
-  b.qd = qd.data();
-  b.u = tau.data();
-  b.out[rbdgrad::cuda::output_index(rbdgrad::cuda::kOutputDqddDq)] = dq.data();
-  b.out[rbdgrad::cuda::output_index(rbdgrad::cuda::kOutputDqddDqd)] = dqd.data();
-  b.status = status.data();
+  rbdgrad::cuda::GradientWorkload<S> work(model.nv, kStates, 3);
+  const rbdgrad::cuda::BatchPointers<S>& b = work.batch;
   const bool with_aba = rbdgrad::cuda::block_uses_aba<S>(true);
   const rbdgrad::cuda::BlockMatrices matrices =
       rbdgrad::cuda::block_matrices(model.nv, flat.matrix_scalars, kLean, false);
@@ -97,8 +82,7 @@ counting::Counts count_state(const rbdgrad::Model& model) {
     rbdgrad::cuda::block_evaluate_state<S, rbdgrad::cuda::ModelView<S>, S, rbdgrad::cuda::block_stages::kPerBatch,
                                         kLean, kLean>(flat.host_view(), w, b, k, true, rbdgrad::cuda::ThreadGroup{});
   }
-  for (std::uint32_t s : status)
-    if (s != 0) std::fprintf(stderr, "warning: a state failed (status %u)\n", s);
+  if (work.failed() != 0) std::fprintf(stderr, "warning: %zu states failed\n", work.failed());
   counting::Counts per = counting::counts;
   per.add /= kStates;
   per.mul /= kStates;

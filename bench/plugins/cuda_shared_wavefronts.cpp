@@ -14,7 +14,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -22,6 +21,7 @@
 
 #include "device/block_fused_state.hpp"
 #include "flat_model.hpp"
+#include "gradient_workload.hpp"
 #include "host_tree_view.hpp"
 #include "rbdgrad/embedded_robots.hpp"
 #include "rbdgrad/urdf.hpp"
@@ -38,23 +38,8 @@ bool trace_state(const rbdgrad::Model& model, int threads) {
   using Model = cuda::HostTreeView<S, NV, LEVELS>;
   const cuda::FlatModel<S> flat(model);
   const Model m(flat.host_view());
-  const auto n = static_cast<std::size_t>(model.nv);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  std::vector<S> q(n), qd(n), tau(n), dq(n * n), dqd(n * n);
-  for (auto* x : {&q, &qd, &tau})
-    for (S& e : *x) e = S(uniform(rng));
-  std::uint32_t status = 0;
-  cuda::BatchPointers<S> b;
-  b.n = 1;
-  b.outputs = cuda::kOutputDqddDq | cuda::kOutputDqddDqd;
-  b.tau_input = true;
-  b.q = q.data();
-  b.qd = qd.data();
-  b.u = tau.data();
-  b.out[cuda::output_index(cuda::kOutputDqddDq)] = dq.data();
-  b.out[cuda::output_index(cuda::kOutputDqddDqd)] = dqd.data();
-  b.status = &status;
+  cuda::GradientWorkload<S> work(model.nv, 1, 5);
+  const cuda::BatchPointers<S>& b = work.batch;
   constexpr bool kLean = true;
   const cuda::BlockMatrices matrices = cuda::block_matrices(model.nv, flat.matrix_scalars, true, false);
   std::vector<S> shared(cuda::BlockWorkspace<S>::scalars(model.nv, false, matrices, kLean));
@@ -65,8 +50,8 @@ bool trace_state(const rbdgrad::Model& model, int threads) {
   g.trace = &shared_trace::recorder;
   cuda::block_load_inputs(m.nv, w, b, 0, g);
   cuda::block_evaluate_state<S, Model, S, cuda::block_stages::kPerBatch, true, kLean>(m, w, b, 0, true, g);
-  if (status != 0) std::fprintf(stderr, "warning: the state failed (status %u)\n", status);
-  return status == 0;
+  if (work.status[0] != 0) std::fprintf(stderr, "warning: the state failed (status %u)\n", work.status[0]);
+  return work.status[0] == 0;
 }
 
 // file:line of a site's innermost frame outside the tracer (its path from the device folder on)
