@@ -147,17 +147,60 @@ RBDGRAD_HD S cross_force_at(const S* m, int sm, const S* f, int sf, int c) {
   const S second = cross3_at(m + 3 * sm, sm, f + 3 * sf, sf, r);
   return angular ? first + second : first;
 }
-// Components r and 3 + r (r < 3) of the two above at once (unit strides), for an item that
-// takes both: the terms each component's select keeps, in the same order.
+// Components r + 1 and r + 2 (mod 3) of the halves of the 6-vector at p (aligned to pairs: the
+// lean layout's), all a cross product's component r needs: the vector read whole, three
+// 16-byte loads that a body's lanes share, and the four picked by selects. Read a component a
+// load, a lean pass's three lanes a body met the banks three ways where two would do (bodies 8
+// apart share them) and a vector took four loads: 306 of a talos_reduced state's 882 wavefronts
+// there were conflicts (cuda_shared_wavefronts).
 template <class S>
-RBDGRAD_HD void cross_motion_pair(const S* m1, const S* m2, int r, S& angular, S& linear) {
-  angular = cross3_at(m1, 1, m2, 1, r);
-  linear = cross3_at(m1, 1, m2 + 3, 1, r) + cross3_at(m1 + 3, 1, m2, 1, r);
+struct CrossOperand {
+  S angular1, angular2, linear1, linear2;
+};
+template <class S>
+RBDGRAD_HD CrossOperand<S> cross_operand(const S* p, int r) {
+  S x[6];
+  load_six<true>(p, x);
+  const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
+  const auto pick = [](S a, S b, S c, int k) { return k == 0 ? a : k == 1 ? b : c; };
+  return {pick(x[0], x[1], x[2], r1), pick(x[0], x[1], x[2], r2), pick(x[3], x[4], x[5], r1),
+          pick(x[3], x[4], x[5], r2)};
 }
+// cross3_at's component r of a x b from the two operands' components r1 and r2
 template <class S>
+RBDGRAD_HD S cross3_of(S a1, S a2, S b1, S b2) {
+  return a1 * b2 - a2 * b1;
+}
+// Components r and 3 + r (r < 3) of the two above at once (unit strides; kWhole: 6-vectors
+// aligned to pairs, read by cross_operand), for an item that takes both: the terms each
+// component's select keeps, in the same order. kWhole where talos_reduced's kernel keeps to its
+// 64 registers without spills with it (the velocities' alpha, the body forces' v x* h, and Dq's
+// S x* F: 177 wavefronts fewer a state by cuda_shared_wavefronts; block_evaluate_state's
+// kWholeCross); in the other passes' items, in the combinations tried, ptxas spilled 8 to 56
+// bytes.
+template <bool kWhole = false, class S>
+RBDGRAD_HD void cross_motion_pair(const S* m1, const S* m2, int r, S& angular, S& linear) {
+  if constexpr (kWhole) {
+    const CrossOperand<S> x = cross_operand(m1, r), y = cross_operand(m2, r);
+    angular = cross3_of(x.angular1, x.angular2, y.angular1, y.angular2);
+    linear = cross3_of(x.angular1, x.angular2, y.linear1, y.linear2) +
+             cross3_of(x.linear1, x.linear2, y.angular1, y.angular2);
+  } else {
+    angular = cross3_at(m1, 1, m2, 1, r);
+    linear = cross3_at(m1, 1, m2 + 3, 1, r) + cross3_at(m1 + 3, 1, m2, 1, r);
+  }
+}
+template <bool kWhole = false, class S>
 RBDGRAD_HD void cross_force_pair(const S* m, const S* f, int r, S& angular, S& linear) {
-  angular = cross3_at(m, 1, f, 1, r) + cross3_at(m + 3, 1, f + 3, 1, r);
-  linear = cross3_at(m, 1, f + 3, 1, r);
+  if constexpr (kWhole) {
+    const CrossOperand<S> x = cross_operand(m, r), y = cross_operand(f, r);
+    angular = cross3_of(x.angular1, x.angular2, y.angular1, y.angular2) +
+              cross3_of(x.linear1, x.linear2, y.linear1, y.linear2);
+    linear = cross3_of(x.angular1, x.angular2, y.linear1, y.linear2);
+  } else {
+    angular = cross3_at(m, 1, f, 1, r) + cross3_at(m + 3, 1, f + 3, 1, r);
+    linear = cross3_at(m, 1, f + 3, 1, r);
+  }
 }
 // (m x* A(:, k))_c of a symmetric A (its upper triangle at A), as cross_force_at on a column
 template <class S>
@@ -344,6 +387,11 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kTreeFixed) tree_ancestor_sums(m, x + t, y, out + t, gravity ? gravity_at(m, t) : S(0));
     else ancestor_sums_item(x, y, out, t, gravity);
   };
+  // the cross products whose operands are read whole (block::cross_operand): in the build the
+  // plugin makes for a robot by default (M^-1 by the tree's chains and columns), where they keep
+  // talos_reduced's kernel at 64 registers without spills; M^-1 by the chains alone spilled 32
+  // bytes with them
+  constexpr bool kWholeCross = kTreeFixed && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
   // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
   // (lean) or the 36 of the matrix
   constexpr int kBodyEntries = kLean ? kInertiaParameterStride : 36;
@@ -509,7 +557,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       if (par < 0) {
         w.alpha[a] = w.alpha[l] = S(0);
       } else {
-        block::cross_motion_pair(w.v + 6 * par, w.axis + 6 * i, r, w.alpha[a], w.alpha[l]);
+        block::cross_motion_pair<kWholeCross>(w.v + 6 * par, w.axis + 6 * i, r, w.alpha[a], w.alpha[l]);
       }
       block::parameter_rows_dot<true>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
     } else {
@@ -539,7 +587,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         const int a = 6 * i + r, l = a + 3;
         S Ia[2], vh[2];
         block::parameter_rows_dot<true>(w.I, i, r, w.a + 6 * i, m.mass[i], Ia[0], Ia[1]);
-        block::cross_force_pair(w.v + 6 * i, w.h + 6 * i, r, vh[0], vh[1]);
+        block::cross_force_pair<kWholeCross>(w.v + 6 * i, w.h + 6 * i, r, vh[0], vh[1]);
         w.f[a] = Ia[0] + (vh[0] - (fext ? w.f_ext[a] : S(0)));
         w.f[l] = Ia[1] + (vh[1] - (fext ? w.f_ext[l] : S(0)));
       } else {
@@ -1040,7 +1088,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
         const int i = t / 3, r = t - 3 * i;
         const S* alpha_i = w.alpha + 6 * i;
         S SF[2], Ic_beta[2], sym[2], anti[2];
-        block::cross_force_pair(w.axis + 6 * i, w.F_total + 6 * i, r, SF[0], SF[1]);
+        block::cross_force_pair<kWholeCross>(w.axis + 6 * i, w.F_total + 6 * i, r, SF[0], SF[1]);
         Ic_rows(i, r, w.beta + 6 * i, Ic_beta[0], Ic_beta[1]);
         Bc_sym_rows(i, r, alpha_i, sym[0], sym[1]);
         block::cross_force_pair(alpha_i, w.hc + 6 * i, r, anti[0], anti[1]);
