@@ -341,6 +341,14 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kLean) return block::inertia_row_dot(w.Ic, i, c, x, w.Ic_mass[i]);
     else return symmetric_row_dot(w.Ic, i, c, x);
   };
+  // the cross products whose operands are read whole (block::cross_operand): in the build the
+  // plugin makes for a robot by default (M^-1 by the tree's chains and columns), where they keep
+  // talos_reduced's kernel at 64 registers without spills; M^-1 by the chains alone spilled 32
+  // bytes with them
+  constexpr bool kWholeCross = kLean && FixedTree<Model>::known && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
+  // the same for the inertias' row products' vectors (block::parameter_rows_dot), in the momenta
+  // h = I v alone: with it in Ic's products, or B_sym's, or I a's, ptxas spilled 8 to 272 bytes
+  constexpr bool kWholeH = kWholeCross;
   // the lean layout's passes over a body's components take two an item, r and 3 + r (r < 3): the
   // products' angular and linear rows share their loads, and the selects that an item a component
   // needed go (rows_item: the item's body and r)
@@ -387,11 +395,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kTreeFixed) tree_ancestor_sums(m, x + t, y, out + t, gravity ? gravity_at(m, t) : S(0));
     else ancestor_sums_item(x, y, out, t, gravity);
   };
-  // the cross products whose operands are read whole (block::cross_operand): in the build the
-  // plugin makes for a robot by default (M^-1 by the tree's chains and columns), where they keep
-  // talos_reduced's kernel at 64 registers without spills; M^-1 by the chains alone spilled 32
-  // bytes with them
-  constexpr bool kWholeCross = kTreeFixed && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
   // the entries a body's inertia, and B's symmetric part, are computed as: their parameters
   // (lean) or the 36 of the matrix
   constexpr int kBodyEntries = kLean ? kInertiaParameterStride : 36;
@@ -559,7 +562,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       } else {
         block::cross_motion_pair<kWholeCross>(w.v + 6 * par, w.axis + 6 * i, r, w.alpha[a], w.alpha[l]);
       }
-      block::parameter_rows_dot<true>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
+      block::parameter_rows_dot<true, kWholeH>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
     } else {
       const int i = t / 6, c = t % 6, par = m.parent[i];
       w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);

@@ -7,6 +7,7 @@
 // J' = w x J - J w x - (h v_o^T + v_o h^T) + 2 (v_o . h) 1 (v = [w; v_o]).
 #pragma once
 
+#include "scalar_pairs.hpp"
 #include "spatial.hpp"
 
 namespace rbdgrad::cuda {
@@ -47,18 +48,34 @@ RBDGRAD_HD S parameter_row_dot(const S* base, int i, int c, const S* x, S mass) 
   else return angular ? moment : cross;
 }
 // Rows r and 3 + r (r < 3) of the product above at once, for an item that takes both: the terms
-// each row's select keeps, and the loads they share (h, x) once.
-template <bool kWithMass, class S>
+// each row's select keeps, and the loads they share (h, x) once. kWhole: x (aligned to pairs, the
+// lean layout's 6-vectors) read whole, three 16-byte loads that a body's lanes share, its
+// components picked by selects; read a component a load, the three lanes of a body met the
+// banks three ways where two would do, and x took eight loads.
+template <bool kWithMass, bool kWhole = false, class S>
 RBDGRAD_HD void parameter_rows_dot(const S* base, int i, int r, const S* x, S mass, S& angular, S& linear) {
   const S* P = base + kInertiaParameterStride * i;
   const S* h = P;
   const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
   const S h1 = h[r1], h2 = h[r2];
-  angular = P[inertia_j_index(r, 0)] * x[0] + P[inertia_j_index(r, 1)] * x[1] + P[inertia_j_index(r, 2)] * x[2] +
-            (h1 * x[3 + r2] - h2 * x[3 + r1]);
-  const S cross = h2 * x[r1] - h1 * x[r2];
-  if constexpr (kWithMass) linear = mass * x[3 + r] + cross;
-  else linear = cross;
+  if constexpr (kWhole) {
+    S v[6];
+    load_six<true>(x, v);
+    const auto pick = [](S a, S b, S c, int k) { return k == 0 ? a : k == 1 ? b : c; };
+    const S w1 = pick(v[0], v[1], v[2], r1), w2 = pick(v[0], v[1], v[2], r2);
+    const S o1 = pick(v[3], v[4], v[5], r1), o2 = pick(v[3], v[4], v[5], r2), o = pick(v[3], v[4], v[5], r);
+    angular = P[inertia_j_index(r, 0)] * v[0] + P[inertia_j_index(r, 1)] * v[1] + P[inertia_j_index(r, 2)] * v[2] +
+              (h1 * o2 - h2 * o1);
+    const S cross = h2 * w1 - h1 * w2;
+    if constexpr (kWithMass) linear = mass * o + cross;
+    else linear = cross;
+  } else {
+    angular = P[inertia_j_index(r, 0)] * x[0] + P[inertia_j_index(r, 1)] * x[1] + P[inertia_j_index(r, 2)] * x[2] +
+              (h1 * x[3 + r2] - h2 * x[3 + r1]);
+    const S cross = h2 * x[r1] - h1 * x[r2];
+    if constexpr (kWithMass) linear = mass * x[3 + r] + cross;
+    else linear = cross;
+  }
 }
 template <class S>
 RBDGRAD_HD S inertia_row_dot(const S* base, int i, int c, const S* x, S mass) {
