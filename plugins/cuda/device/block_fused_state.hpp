@@ -423,21 +423,33 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   });
   g.sync();
-  // world placements: column col of [R p] of body i through its ancestors' transforms
-  g.for_each(4 * n, [&](int t) {
-    const int i = t / 4, col = t % 4;
-    S x[3];
-    for (int r = 0; r < 3; ++r) x[r] = col < 3 ? w.R_local[9 * i + 3 * r + col] : w.p_local[3 * i + r];
+  // world placements: columns 2 h and 2 h + 1 of [R p] of body i through its ancestors'
+  // transforms, item t = h n + i: each ancestor's transform read once for two columns (four
+  // columns a thread spilled at 64 registers), and a warp's lanes take the same columns
+  g.for_each(2 * n, [&](int t) {
+    const int i = t % n, h = t / n;
+    // column 2 h + k of R (stride 3), or p
+    const int stride1 = h == 0 ? 3 : 1;
+    S x[2][3];
+    for (int r = 0; r < 3; ++r) {
+      x[0][r] = w.R_local[9 * i + 3 * r + 2 * h];
+      x[1][r] = (h == 0 ? w.R_local + 9 * i + 1 : w.p_local + 3 * i)[stride1 * r];
+    }
     for (int j = m.parent[i]; j >= 0; j = m.parent[j]) {
-      const S* Rj = w.R_local + 9 * j;
-      S y[3];
-      for (int r = 0; r < 3; ++r)
-        y[r] = Rj[3 * r] * x[0] + Rj[3 * r + 1] * x[1] + Rj[3 * r + 2] * x[2] + (col == 3 ? w.p_local[3 * j + r] : S(0));
-      for (int r = 0; r < 3; ++r) x[r] = y[r];
+      S y[2][3];
+      for (int r = 0; r < 3; ++r) {  // Rj's row r, for both columns
+        const S* row = w.R_local + 9 * j + 3 * r;
+        const S r0 = row[0], r1 = row[1], r2 = row[2];
+        for (int k = 0; k < 2; ++k) y[k][r] = r0 * x[k][0] + r1 * x[k][1] + r2 * x[k][2];
+      }
+      for (int k = 0; k < 2; ++k)
+        for (int r = 0; r < 3; ++r) x[k][r] = y[k][r];
+      if (h == 1)
+        for (int r = 0; r < 3; ++r) x[1][r] += w.p_local[3 * j + r];
     }
     for (int r = 0; r < 3; ++r) {
-      if (col < 3) w.R[9 * i + 3 * r + col] = x[r];
-      else w.p[3 * i + r] = x[r];
+      w.R[9 * i + 3 * r + 2 * h] = x[0][r];
+      (h == 0 ? w.R + 9 * i + 1 : w.p + 3 * i)[stride1 * r] = x[1][r];
     }
   });
   g.sync();
