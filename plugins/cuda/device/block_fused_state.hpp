@@ -174,10 +174,8 @@ RBDGRAD_HD S cross3_of(S a1, S a2, S b1, S b2) {
 // Components r and 3 + r (r < 3) of the two above at once (unit strides; kWhole: 6-vectors
 // aligned to pairs, read by cross_operand), for an item that takes both: the terms each
 // component's select keeps, in the same order. kWhole where talos_reduced's kernel keeps to its
-// 64 registers without spills with it (the velocities' alpha, the body forces' v x* h, and Dq's
-// S x* F: 177 wavefronts fewer a state by cuda_shared_wavefronts; block_evaluate_state's
-// kWholeCross); in the other passes' items, in the combinations tried, ptxas spilled 8 to 56
-// bytes.
+// 64 registers without spills with it (block_evaluate_state's kWholeCross); in the other passes'
+// items, in the combinations tried, ptxas spilled 8 to 56 bytes.
 template <bool kWhole = false, class S>
 RBDGRAD_HD void cross_motion_pair(const S* m1, const S* m2, int r, S& angular, S& linear) {
   if constexpr (kWhole) {
@@ -341,19 +339,25 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     if constexpr (kLean) return block::inertia_row_dot(w.Ic, i, c, x, w.Ic_mass[i]);
     else return symmetric_row_dot(w.Ic, i, c, x);
   };
-  // the cross products whose operands are read whole (block::cross_operand): in the build the
-  // plugin makes for a robot by default (M^-1 by the tree's chains and columns), where they keep
-  // talos_reduced's kernel at 64 registers without spills; M^-1 by the chains alone spilled 32
-  // bytes with them
+  // the products whose 6-vector operands are read whole (block::cross_operand, and
+  // parameter_rows_dot's vectors): in the build the plugin makes for a robot by default (M^-1 by
+  // the tree's chains and columns), at the sites where talos_reduced's kernel keeps to 64
+  // registers without spills: alpha's v x S, h = I v, the body forces' v x* h, beta's two cross
+  // products, B's S x* hc, Dq's S x* F, and Ic a_qdd_parent (6,757 -> 6,022 shared wavefronts a
+  // state with the world placements two columns a thread, cuda_shared_wavefronts). Any one of the
+  // other sites more (I a, Ic S, Ic alpha, a_qdd x S, Ic beta, alpha x* hc) spilled 16 to 32
+  // bytes; the build with M^-1 by the chains alone spilled 32 with alpha's, v x* h and Dq's
   constexpr bool kWholeCross = kLean && FixedTree<Model>::known && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
-  // the same for the inertias' row products' vectors (block::parameter_rows_dot), in the momenta
-  // h = I v alone: with it in Ic's products, or B_sym's, or I a's, ptxas spilled 8 to 272 bytes
   constexpr bool kWholeH = kWholeCross;
   // the lean layout's passes over a body's components take two an item, r and 3 + r (r < 3): the
   // products' angular and linear rows share their loads, and the selects that an item a component
   // needed go (rows_item: the item's body and r)
   const auto Ic_rows = [&](int i, int r, const S* x, S& angular, S& linear) {
     block::parameter_rows_dot<true>(w.Ic, i, r, x, w.Ic_mass[i], angular, linear);
+  };
+  // (the vector read whole where kWholeCross: above)
+  const auto Ic_rows_whole = [&](int i, int r, const S* x, S& angular, S& linear) {
+    block::parameter_rows_dot<true, kWholeCross>(w.Ic, i, r, x, w.Ic_mass[i], angular, linear);
   };
   const auto Bc_sym_rows = [&](int i, int r, const S* x, S& angular, S& linear) {
     block::parameter_rows_dot<false>(w.Bc_sym, i, r, x, S(0), angular, linear);
@@ -618,8 +622,8 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       const S* Si = w.axis + 6 * i;
       if (par >= 0) {
         S x[2], y[2];
-        block::cross_motion_pair(w.a + 6 * par, Si, r, x[0], x[1]);
-        block::cross_motion_pair(w.v + 6 * par, w.alpha + 6 * i, r, y[0], y[1]);
+        block::cross_motion_pair<kWholeCross>(w.a + 6 * par, Si, r, x[0], x[1]);
+        block::cross_motion_pair<kWholeCross>(w.v + 6 * par, w.alpha + 6 * i, r, y[0], y[1]);
         w.beta[a] = x[0] + y[0];
         w.beta[l] = x[1] + y[1];
       } else {
@@ -726,7 +730,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       Ic_rows(i, r, Si, IcS[r], IcS[3 + r]);
       S sym[2], anti[2];
       Bc_sym_rows(i, r, Si, sym[0], sym[1]);
-      block::cross_force_pair(Si, w.hc + 6 * i, r, anti[0], anti[1]);
+      block::cross_force_pair<kWholeCross>(Si, w.hc + 6 * i, r, anti[0], anti[1]);
       BcS[r] = sym[0] - anti[0];
       BcS[3 + r] = sym[1] - anti[1];
       if (want_dqd) {
@@ -1054,7 +1058,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
           block::cross_motion_pair(w.a_qdd + 6 * par, w.axis + 6 * i, r, x[0], x[1]);
           w.beta[a] += x[0];
           w.beta[l] += x[1];
-          Ic_rows(i, r, w.a_qdd + 6 * par, x[0], x[1]);
+          Ic_rows_whole(i, r, w.a_qdd + 6 * par, x[0], x[1]);
           s0[0] += x[0];
           s0[1] += x[1];
         }
