@@ -241,6 +241,36 @@ template <class S>
 RBDGRAD_HD S gravity_at(const ModelView<S>& m, int c) {
   return c < 3 ? S(0) : c == 3 ? -m.gravity[0] : c == 4 ? -m.gravity[1] : -m.gravity[2];
 }
+// Columns c0 .. c0 + K - 1 of body i's world placement [R p] (column 3 is p), through its
+// ancestors' transforms from the local ones (R_local, p_local): a row of an ancestor's rotation
+// read once for the K columns
+template <int K, class S, class Model>
+RBDGRAD_HD void place_columns(const Model& m, const BlockWorkspace<S>& w, int i, int c0) {
+  S x[K][3];
+  for (int k = 0; k < K; ++k)
+    for (int r = 0; r < 3; ++r) x[k][r] = c0 + k < 3 ? w.R_local[9 * i + 3 * r + c0 + k] : w.p_local[3 * i + r];
+  for (int j = m.parent[i]; j >= 0; j = m.parent[j]) {
+    S y[K][3];
+    for (int r = 0; r < 3; ++r) {
+      const S* row = w.R_local + 9 * j + 3 * r;
+      const S r0 = row[0], r1 = row[1], r2 = row[2];
+      for (int k = 0; k < K; ++k)
+        y[k][r] = r0 * x[k][0] + r1 * x[k][1] + r2 * x[k][2] + (K == 1 && c0 == 3 ? w.p_local[3 * j + r] : S(0));
+    }
+    for (int k = 0; k < K; ++k)
+      for (int r = 0; r < 3; ++r) x[k][r] = y[k][r];
+    // (p's translation added after the rotation where K > 1, in the sum where K = 1: the same
+    // operations, in the forms that ptxas kept talos_reduced's builds at 64 registers without
+    // spills)
+    if (K > 1 && c0 + K - 1 == 3)
+      for (int r = 0; r < 3; ++r) x[K - 1][r] += w.p_local[3 * j + r];
+  }
+  for (int k = 0; k < K; ++k)
+    for (int r = 0; r < 3; ++r) {
+      if (c0 + k < 3) w.R[9 * i + 3 * r + c0 + k] = x[k][r];
+      else w.p[3 * i + r] = x[k][r];
+    }
+}
 // ([0; -g] x S)_c, the root's a_parent x S: zero for c < 3, (-g x S_angular)_(c - 3) after
 template <class S, class Model>
 RBDGRAD_HD S gravity_cross_at(const Model& m, const S* Si, int c) {
@@ -427,35 +457,17 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
     }
   });
   g.sync();
-  // world placements: columns 2 h and 2 h + 1 of [R p] of body i through its ancestors'
-  // transforms, item t = h n + i: each ancestor's transform read once for two columns (four
-  // columns a thread spilled at 64 registers), and a warp's lanes take the same columns
-  g.for_each(2 * n, [&](int t) {
-    const int i = t % n, h = t / n;
-    // column 2 h + k of R (stride 3), or p
-    const int stride1 = h == 0 ? 3 : 1;
-    S x[2][3];
-    for (int r = 0; r < 3; ++r) {
-      x[0][r] = w.R_local[9 * i + 3 * r + 2 * h];
-      x[1][r] = (h == 0 ? w.R_local + 9 * i + 1 : w.p_local + 3 * i)[stride1 * r];
-    }
-    for (int j = m.parent[i]; j >= 0; j = m.parent[j]) {
-      S y[2][3];
-      for (int r = 0; r < 3; ++r) {  // Rj's row r, for both columns
-        const S* row = w.R_local + 9 * j + 3 * r;
-        const S r0 = row[0], r1 = row[1], r2 = row[2];
-        for (int k = 0; k < 2; ++k) y[k][r] = r0 * x[k][0] + r1 * x[k][1] + r2 * x[k][2];
-      }
-      for (int k = 0; k < 2; ++k)
-        for (int r = 0; r < 3; ++r) x[k][r] = y[k][r];
-      if (h == 1)
-        for (int r = 0; r < 3; ++r) x[1][r] += w.p_local[3 * j + r];
-    }
-    for (int r = 0; r < 3; ++r) {
-      w.R[9 * i + 3 * r + 2 * h] = x[0][r];
-      (h == 0 ? w.R + 9 * i + 1 : w.p + 3 * i)[stride1 * r] = x[1][r];
-    }
-  });
+  // world placements (block::place_columns)
+  if constexpr (kWholeCross) {
+    // two columns a thread, item t = h n + i (a warp's lanes the same columns): each ancestor's
+    // rotation read once for both, 6,757 -> 6,548 shared wavefronts a talos_reduced state
+    // (cuda_shared_wavefronts). Four a thread spilled 20 to 28 bytes at 64 registers, and two
+    // spilled 8 to 144 in the lean builds with M^-1 by the chains alone or by levels: so in the
+    // default build alone (kWholeCross)
+    g.for_each(2 * n, [&](int t) { block::place_columns<2>(m, w, t % n, 2 * (t / n)); });
+  } else {
+    g.for_each(4 * n, [&](int t) { block::place_columns<1>(m, w, t / 4, t % 4); });
+  }
   g.sync();
   // axes, centres of mass and rotational inertias in world axes, external forces in the world:
   // every entry of every body in parallel (the local transforms are not needed any more, their
