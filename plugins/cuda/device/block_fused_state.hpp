@@ -374,9 +374,10 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // the tree's chains and columns), at the sites where talos_reduced's kernel keeps to 64
   // registers without spills: alpha's v x S, h = I v, the body forces' v x* h, beta's two cross
   // products, B's S x* hc, Dq's S x* F, and Ic a_qdd_parent (6,757 -> 6,022 shared wavefronts a
-  // state with the world placements two columns a thread, cuda_shared_wavefronts). Any one of the
-  // other sites more (I a, Ic S, Ic alpha, a_qdd x S, Ic beta, alpha x* hc) spilled 16 to 32
-  // bytes; the build with M^-1 by the chains alone spilled 32 with alpha's, v x* h and Dq's
+  // state with the world placements two columns a thread, cuda_shared_wavefronts). The other
+  // sites, tried one at a time on top of these, spilled 16 to 32 bytes (I a, Ic S, a_qdd x S,
+  // Ic beta, alpha x* hc; Ic alpha with Ic S); the build with M^-1 by the chains alone spilled 32
+  // with alpha's, v x* h and Dq's
   constexpr bool kWholeCross = kLean && FixedTree<Model>::known && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
   constexpr bool kWholeH = kWholeCross;
   // the lean layout's passes over a body's components take two an item, r and 3 + r (r < 3): the
