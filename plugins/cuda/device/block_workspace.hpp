@@ -141,9 +141,10 @@ struct BlockWorkspace {
     const int per_joint = lean ? kLeanLiveScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
                                : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
     const std::size_t spare = lean ? static_cast<std::size_t>(lean_spare_scalars(nv, matrices)) : 0;
+    // (+1: the lean layout's v with the articulated-body pass, moved to an even offset)
     const std::size_t scalars = static_cast<std::size_t>(per_joint) * n + spare +
                                 static_cast<std::size_t>(matrices.matrix) + static_cast<std::size_t>(matrices.minv) +
-                                kStatusScalars;
+                                kStatusScalars + (lean && with_aba ? 1 : 0);
     // the lean layout's states an even number of scalars apart, so that each state's arrays keep
     // the pairs' alignment (scalar_pairs.hpp)
     return lean ? (scalars + 1) / 2 * 2 : scalars;
@@ -152,7 +153,7 @@ struct BlockWorkspace {
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba)
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
-      : next_(base) {
+      : base_(base), next_(base) {
     if (lean) take_lean(nv, lean_spare_scalars(nv, matrices), !matrices.minv_supplied);
     else take_default(nv);
     // (the lean layout's X: T, then these two)
@@ -164,7 +165,7 @@ struct BlockWorkspace {
         R = take(9 * n);
         p = take(3 * n);
         qd = take(n);
-        v = take(6 * n);
+        v = take_pairs(6 * n);  // (read as pairs where whole 6-vectors are: after 13 n scalars)
       }
       f_ext = take(6 * n);
       I_joint = take(36 * n);
@@ -254,6 +255,12 @@ struct BlockWorkspace {
     next_ += count;
     return at;
   }
+  // the same at an even number of scalars into the state's working set (scalar_pairs.hpp)
+  RBDGRAD_HD S* take_pairs(int count) {
+    if ((next_ - base_) % 2 != 0) ++next_;
+    return take(count);
+  }
+  S* base_;
   S* next_;
 };
 

@@ -217,7 +217,7 @@ TEST(BlockStateOnHost, FixedTreeMatchesTheCore) {
   check_fixed_tree<double, 12, 3>("hyq");
   check_fixed_tree<double, 7, 7>("iiwa14");
   // f32 with the articulated-body pass's arrays after the matrices, an odd joint count: a pair
-  // read (scalar_pairs.hpp) must still start at an even offset
+  // read (scalar_pairs.hpp) and the 6-vectors read whole must still start at even offsets
   check_fixed_tree<float, 7, 7>("iiwa14");
 }
 
