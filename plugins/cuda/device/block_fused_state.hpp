@@ -162,9 +162,8 @@ RBDGRAD_HD CrossOperand<S> cross_operand(const S* p, int r) {
   S x[6];
   load_six<true>(p, x);
   const int r1 = r == 2 ? 0 : r + 1, r2 = r == 0 ? 2 : r - 1;
-  const auto pick = [](S a, S b, S c, int k) { return k == 0 ? a : k == 1 ? b : c; };
-  return {pick(x[0], x[1], x[2], r1), pick(x[0], x[1], x[2], r2), pick(x[3], x[4], x[5], r1),
-          pick(x[3], x[4], x[5], r2)};
+  return {pick3(x[0], x[1], x[2], r1), pick3(x[0], x[1], x[2], r2), pick3(x[3], x[4], x[5], r1),
+          pick3(x[3], x[4], x[5], r2)};
 }
 // cross3_at's component r of a x b from the two operands' components r1 and r2
 template <class S>
@@ -379,7 +378,6 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
   // Ic beta, alpha x* hc; Ic alpha with Ic S); the build with M^-1 by the chains alone spilled 32
   // with alpha's, v x* h and Dq's
   constexpr bool kWholeCross = kLean && FixedTree<Model>::known && kPacked && TreeConstants<Model>::chains && TreeConstants<Model>::columns;
-  constexpr bool kWholeH = kWholeCross;
   // the lean layout's passes over a body's components take two an item, r and 3 + r (r < 3): the
   // products' angular and linear rows share their loads, and the selects that an item a component
   // needed go (rows_item: the item's body and r)
@@ -591,7 +589,7 @@ RBDGRAD_HD void block_evaluate_state(const Model& m, const BlockWorkspace<S>& w,
       } else {
         block::cross_motion_pair<kWholeCross>(w.v + 6 * par, w.axis + 6 * i, r, w.alpha[a], w.alpha[l]);
       }
-      block::parameter_rows_dot<true, kWholeH>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
+      block::parameter_rows_dot<true, kWholeCross>(w.I, i, r, w.v + 6 * i, m.mass[i], w.h[a], w.h[l]);
     } else {
       const int i = t / 6, c = t % 6, par = m.parent[i];
       w.alpha[t] = par < 0 ? S(0) : cross_motion_at(w.v + 6 * par, 1, w.axis + 6 * i, 1, c);

@@ -61,9 +61,8 @@ RBDGRAD_HD void parameter_rows_dot(const S* base, int i, int r, const S* x, S ma
   if constexpr (kWhole) {
     S v[6];
     load_six<true>(x, v);
-    const auto pick = [](S a, S b, S c, int k) { return k == 0 ? a : k == 1 ? b : c; };
-    const S w1 = pick(v[0], v[1], v[2], r1), w2 = pick(v[0], v[1], v[2], r2);
-    const S o1 = pick(v[3], v[4], v[5], r1), o2 = pick(v[3], v[4], v[5], r2), o = pick(v[3], v[4], v[5], r);
+    const S w1 = pick3(v[0], v[1], v[2], r1), w2 = pick3(v[0], v[1], v[2], r2);
+    const S o1 = pick3(v[3], v[4], v[5], r1), o2 = pick3(v[3], v[4], v[5], r2), o = pick3(v[3], v[4], v[5], r);
     angular = P[inertia_j_index(r, 0)] * v[0] + P[inertia_j_index(r, 1)] * v[1] + P[inertia_j_index(r, 2)] * v[2] +
               (h1 * o2 - h2 * o1);
     const S cross = h2 * w1 - h1 * w2;

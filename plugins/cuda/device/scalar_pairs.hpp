@@ -106,4 +106,11 @@ RBDGRAD_PAIR_HD void load_six(const S* p, S (&x)[6]) {
   }
 }
 
+// a, b or c as k is 0, 1 or 2: a component of a vector a thread holds, picked by selects (indexed
+// at run time, ptxas would put the array in local memory)
+template <class S>
+RBDGRAD_HD S pick3(S a, S b, S c, int k) {
+  return k == 0 ? a : k == 1 ? b : c;
+}
+
 }  // namespace rbdgrad::cuda
