@@ -12,7 +12,8 @@
 // are the block kernel's)
 // Defaults: talos_reduced; f64 and f64 for f32 (both); the plugin's default build for it
 // (columns: the lean working set, M^-1 by the tree's chains and its columns by the tree's blocks);
-// the register cap the plugin gives that build on an H100 or H200 (64 for talos_reduced).
+// the register cap the plugin gives that build on an H100 or H200 (64 for talos_reduced's builds
+// that compute in f64; none for f32 arithmetic, as in the plugin: register_capped).
 // Exit status: 0 when every build compiled without spills, 1 when one spilled, 2 on bad arguments,
 // a failed compilation or a log without ptxas's report on the kernel, 77 where NVRTC is not
 // installed (CTest's skip).
@@ -134,14 +135,14 @@ int main(int argc, char** argv) {
   build.lean = lean;
   build.tree_chains = o.build == "chains" || o.build == "columns";
   build.tree_columns = o.build == "columns";
-  build.register_cap =
-      o.cap >= 0 ? o.cap : rbdgrad::cuda::compact_register_cap(model, lean, {}, rbdgrad::cuda::hopper_sm_limits());
+  const int plugin_cap = rbdgrad::cuda::compact_register_cap(model, lean, {}, rbdgrad::cuda::hopper_sm_limits());
 
   if (o.warp && model.nv > rbdgrad::cuda::kMaxWarpNv) return usage(("no warp kernel for " + o.robot).c_str());
   // the warp kernel: one program for f64 and f32 batches (computed in f64 either way)
   if (o.warp) o.scalars = {KernelScalars::kF64};
   bool spilled = false;
   for (const KernelScalars scalars : o.scalars) {
+    build.register_cap = o.cap >= 0 ? o.cap : rbdgrad::cuda::register_capped(scalars) ? plugin_cap : 0;
     rbdgrad::cuda::NvrtcProgram program =
         o.warp ? rbdgrad::cuda::warp_kernel_program(model, true, 90)
                : rbdgrad::cuda::block_kernel_program(model, scalars, 90, rbdgrad::cuda::block_stages::kPerBatch, build);

@@ -46,7 +46,7 @@ Status SpecializedBlockKernel::load(const Model& model, KernelScalars scalars, i
   k->build_.lean = wanted.compact && wanted.lean;
   k->build_.tree_chains = k->build_.lean && wanted.tree_chains;
   k->build_.tree_columns = k->build_.tree_chains && wanted.tree_columns;
-  if (wanted.compact && scalars != KernelScalars::kF32)
+  if (wanted.compact && register_capped(scalars))
     if (Status s = device_register_cap(model, k->build_.lean, shape, device, k->build_.register_cap); !s) return s;
   if (Status s = CompiledLibrary::load(block_kernel_program(model, scalars, arch, stages, k->build_), device,
                                        max_shared_bytes, cache_dir, k->library_);

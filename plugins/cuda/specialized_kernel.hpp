@@ -22,6 +22,9 @@ namespace rbdgrad::cuda {
 /// (large batches' shape where it is automatic), from its shared memory (lean or not) for a batch
 /// from tau without a caller's M^-1. 0: no cap.
 int compact_register_cap(const Model& model, bool lean, const BlockShape& shape, const SmLimits& sm);
+/// Whether the compact kernel in `scalars` gets that cap: where it computes in f64 (f64 batches,
+/// f32 batches computed in f64); the f32 arithmetic's articulated-body pass spills at 64 registers.
+inline bool register_capped(KernelScalars scalars) { return scalars != KernelScalars::kF32; }
 
 class SpecializedBlockKernel {
  public:
