@@ -141,10 +141,9 @@ struct BlockWorkspace {
     const int per_joint = lean ? kLeanLiveScalarsPerJoint + (with_aba ? kLeanAbaScalarsPerJoint : 0)
                                : kScalarsPerJoint + (with_aba ? kAbaScalarsPerJoint : 0);
     const std::size_t spare = lean ? static_cast<std::size_t>(lean_spare_scalars(nv, matrices)) : 0;
-    // (+1: the lean layout's v with the articulated-body pass, moved to an even offset)
     const std::size_t scalars = static_cast<std::size_t>(per_joint) * n + spare +
                                 static_cast<std::size_t>(matrices.matrix) + static_cast<std::size_t>(matrices.minv) +
-                                kStatusScalars + (lean && with_aba ? 1 : 0);
+                                kStatusScalars;
     // the lean layout's states an even number of scalars apart, so that each state's arrays keep
     // the pairs' alignment (scalar_pairs.hpp)
     return lean ? (scalars + 1) / 2 * 2 : scalars;
@@ -153,7 +152,7 @@ struct BlockWorkspace {
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba)
       : BlockWorkspace(base, nv, with_aba, block_matrices(nv, 0, false, false)) {}
   RBDGRAD_HD BlockWorkspace(S* base, int nv, bool with_aba, BlockMatrices matrices, bool lean = false)
-      : base_(base), next_(base) {
+      : next_(base) {
     if (lean) take_lean(nv, lean_spare_scalars(nv, matrices), !matrices.minv_supplied);
     else take_default(nv);
     // (the lean layout's X: T, then these two)
@@ -162,10 +161,12 @@ struct BlockWorkspace {
     if (with_aba) {
       const int n = nv;
       if (lean) {
+        // v first, at the even offset the matrices end on: the 6-vectors read whole read it as
+        // pairs (scalar_pairs.hpp), and after R, p and qd (13 n) it would be odd for odd n
+        v = take(6 * n);
         R = take(9 * n);
         p = take(3 * n);
         qd = take(n);
-        v = take_pairs(6 * n);  // (read as pairs where whole 6-vectors are: after 13 n scalars)
       }
       f_ext = take(6 * n);
       I_joint = take(36 * n);
@@ -211,7 +212,7 @@ struct BlockWorkspace {
     F_total = F;
     f_ext = Bc;  // with the articulated-body pass, which reads them later, an array of their own
   }
-  // (with the articulated-body pass R, p, qd, v and f_ext get arrays of their own after the
+  // (with the articulated-body pass v, R, p, qd and f_ext get arrays of their own after the
   // matrices, which follow T: X)
   RBDGRAD_HD void take_lean(int n, int spare_scalars, bool inversion) {
     u = take(n);
@@ -255,12 +256,6 @@ struct BlockWorkspace {
     next_ += count;
     return at;
   }
-  // the same at an even number of scalars into the state's working set (scalar_pairs.hpp)
-  RBDGRAD_HD S* take_pairs(int count) {
-    if ((next_ - base_) % 2 != 0) ++next_;
-    return take(count);
-  }
-  S* base_;
   S* next_;
 };
 
